@@ -1,0 +1,125 @@
+"""Exception types shared by every layer.
+
+They subclass the matching builtin so that ``except ValueError`` keeps working for callers that do
+not know postcapture's own types.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "PostcaptureError",
+    "Problem",
+    "ScenarioError",
+    "DimensionError",
+    "DomainError",
+    "CovarianceError",
+    "TimeGridError",
+    "SimulationError",
+    "FilterDivergenceError",
+    "FMIError",
+    "MissingExtraError",
+]
+
+
+class PostcaptureError(Exception):
+    """Base class of every error raised on purpose by postcapture."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem found by a validator: where, what was expected, what was found."""
+
+    path: str
+    expected: str
+    found: str
+
+    def __str__(self) -> str:
+        return f"{self.path}: expected {self.expected}, found {self.found}"
+
+
+class ScenarioError(PostcaptureError, ValueError):
+    """A scenario (or another input description) failed validation.
+
+    Parameters
+    ----------
+    problems : list of Problem
+        Every problem found, not only the first one.
+    source : str, optional
+        The file or name the description came from.
+    """
+
+    def __init__(self, problems: list[Problem], source: str | None = None):
+        self.problems = list(problems)
+        self.source = source
+        head = f"invalid scenario {source!r}" if source else "invalid scenario"
+        n = len(self.problems)
+        lines = [f"{head}: {n} problem{'s' if n != 1 else ''}"]
+        lines += [f"  - {p}" for p in self.problems]
+        super().__init__("\n".join(lines))
+
+
+class DimensionError(PostcaptureError, ValueError):
+    """An array has the wrong shape: the message names it, the expected and the found shape."""
+
+
+class DomainError(PostcaptureError, ValueError):
+    """A value lies outside the domain of a function (for example a parameter outside a sigmoid's range)."""
+
+
+class CovarianceError(PostcaptureError, ValueError):
+    """A covariance matrix is not finite or not symmetric positive definite; the message names it."""
+
+
+class TimeGridError(PostcaptureError, ValueError):
+    """Requested instants are not on a time grid (sensor sample times not on the truth grid, ...)."""
+
+
+class SimulationError(PostcaptureError, RuntimeError):
+    """The integration failed (Newton did not converge, a state became non-finite, ...)."""
+
+
+class FilterDivergenceError(PostcaptureError, RuntimeError):
+    """A filter diverged. Carries the filter name, the time and the cause."""
+
+    def __init__(self, filter_name: str, time: float, cause: str):
+        self.filter_name = filter_name
+        self.time = time
+        self.cause = cause
+        super().__init__(f"filter {filter_name!r} diverged at t = {time:.6g} s: {cause}")
+
+
+class FMIError(PostcaptureError, RuntimeError):
+    """An FMI call failed, or an FMU or mapping is unusable.
+
+    Attributes
+    ----------
+    fmu : str
+        The FMU file (or model name).
+    function : str or None
+        The FMI function or operation that failed.
+    status : str or None
+        The FMI status returned (``"Error"``, ``"Discard"``, ...), when there is one.
+    """
+
+    def __init__(self, message: str, fmu: str = "", function: str | None = None, status: str | None = None):
+        self.fmu = fmu
+        self.function = function
+        self.status = status
+        where = f"{fmu}: " if fmu else ""
+        call = f"{function}" if function else ""
+        stat = f" returned {status}" if status else ""
+        prefix = f"{where}{call}{stat}: " if (call or stat) else where
+        super().__init__(f"{prefix}{message}")
+
+
+class MissingExtraError(PostcaptureError, ImportError):
+    """An optional dependency is missing; the message names the pip extra that provides it."""
+
+    def __init__(self, package: str, extra: str):
+        self.package = package
+        self.extra = extra
+        super().__init__(
+            f"{package} is not installed; install the optional extra: pip install 'postcapture[{extra}]'"
+        )
