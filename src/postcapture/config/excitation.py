@@ -1,0 +1,128 @@
+"""Known excitation inputs: time profiles on named input channels.
+
+The input vector of the plant is ``u = [F_B (3), tau_B (3), tau_arm (n_arm)]``: a force on the chaser
+at its centre of mass and a torque, both in chaser body components (thrusters), then the arm joint
+motor torques. Channels are named ``force_x``, ``torque_z``, ``joint_1`` ... ``joint_n``.
+
+Profiles are pure functions of time; entries on the same channel add up.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Union
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, problem
+
+__all__ = ["Step", "Sine", "Chirp", "Table", "Excitation", "CHASER_CHANNELS", "channel_index"]
+
+CHASER_CHANNELS = ("force_x", "force_y", "force_z", "torque_x", "torque_y", "torque_z")
+
+
+def channel_index(channel: str, n_arm: int) -> int:
+    """Index of a named channel in the input vector ``u`` (length ``6 + n_arm``)."""
+    if channel in CHASER_CHANNELS:
+        return CHASER_CHANNELS.index(channel)
+    if channel.startswith("joint_"):
+        k = int(channel[6:])
+        if 1 <= k <= n_arm:
+            return 5 + k
+    raise ValueError(f"unknown channel {channel!r}")
+
+
+class _Window(Frozen):
+    channel: str
+    start: NonNegativeFloat = 0.0
+    stop: NonNegativeFloat | None = None
+
+    @model_validator(mode="after")
+    def _window(self):
+        if self.stop is not None and self.stop <= self.start:
+            raise problem(f"stop > start = {self.start}", self.stop)
+        ok = self.channel in CHASER_CHANNELS or (
+            self.channel.startswith("joint_") and self.channel[6:].isdigit() and int(self.channel[6:]) >= 1
+        )
+        if not ok:
+            raise problem("a channel among force_x|y|z, torque_x|y|z, joint_<k>", repr(self.channel))
+        return self
+
+    def _active(self, t):
+        t = np.asarray(t, dtype=float)
+        on = t >= self.start
+        if self.stop is not None:
+            on &= t < self.stop
+        return on
+
+
+class Step(_Window):
+    """Constant ``amplitude`` on ``[start, stop)`` (a pulse when ``stop`` is given)."""
+
+    kind: Literal["step"]
+    amplitude: float
+
+    def __call__(self, t):
+        return np.where(self._active(t), self.amplitude, 0.0)
+
+
+class Sine(_Window):
+    """``offset + amplitude sin(2 pi frequency (t - start) + phase)`` on ``[start, stop)``."""
+
+    kind: Literal["sine"]
+    amplitude: float
+    frequency: PositiveFloat
+    phase: float = 0.0
+    offset: float = 0.0
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        val = self.offset + self.amplitude * np.sin(2 * np.pi * self.frequency * (t - self.start) + self.phase)
+        return np.where(self._active(t), val, 0.0)
+
+
+class Chirp(_Window):
+    """Linear sine sweep from ``f0`` to ``f1`` (Hz) over ``[start, stop)``; ``stop`` is required."""
+
+    kind: Literal["chirp"]
+    amplitude: float
+    f0: PositiveFloat
+    f1: PositiveFloat
+    phase: float = 0.0
+
+    @model_validator(mode="after")
+    def _needs_stop(self):
+        if self.stop is None:
+            raise problem("a stop time for a chirp", "none")
+        return self
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        T = self.stop - self.start
+        tau = t - self.start
+        rate = (self.f1 - self.f0) / T
+        val = self.amplitude * np.sin(2 * np.pi * (self.f0 * tau + 0.5 * rate * tau * tau) + self.phase)
+        return np.where(self._active(t), val, 0.0)
+
+
+class Table(_Window):
+    """Piecewise-linear table ``(t, value)``; constant extrapolation outside, zero outside the window."""
+
+    kind: Literal["table"]
+    t: tuple[float, ...] = Field(min_length=2)
+    value: tuple[float, ...] = Field(min_length=2)
+
+    @model_validator(mode="after")
+    def _table(self):
+        if len(self.t) != len(self.value):
+            raise problem(f"as many values as times ({len(self.t)})", len(self.value))
+        if np.any(np.diff(self.t) <= 0.0):
+            raise problem("strictly increasing times", list(self.t))
+        return self
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        return np.where(self._active(t), np.interp(t, self.t, self.value), 0.0)
+
+
+Excitation = Annotated[Union[Step, Sine, Chirp, Table], Field(discriminator="kind")]

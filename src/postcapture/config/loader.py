@@ -1,0 +1,130 @@
+"""Load a scenario from a built-in name or a TOML file, reporting every problem at once."""
+
+from __future__ import annotations
+
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from postcapture.config.schema import Scenario
+from postcapture.core.errors import Problem, ScenarioError
+
+__all__ = ["builtin_scenarios", "load_scenario", "scenario_from_dict", "problems_from_validation"]
+
+
+def builtin_scenarios() -> list[str]:
+    """Names of the scenarios shipped inside the package."""
+    folder = resources.files("postcapture.config") / "scenarios"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def _loc(loc: tuple) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif part in ("step", "sine", "chirp", "table", "function-after[_check_inertia(), tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]]"):
+            continue  # discriminator / validator tags pydantic inserts into paths
+        elif isinstance(part, str) and ("[" in part or "(" in part):
+            continue
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "(scenario)"
+
+
+def _expected(err: dict) -> str:
+    kind = err["type"]
+    ctx = err.get("ctx") or {}
+    if kind == "scenario":
+        return ctx["expected"]
+    if kind == "missing":
+        return "a value (required key)"
+    if kind == "extra_forbidden":
+        return "a known key (this one is not part of the schema)"
+    if kind in ("finite_number",):
+        return "a finite number"
+    if kind in ("float_parsing", "float_type", "int_parsing", "int_type"):
+        return "a number"
+    if kind == "greater_than":
+        return f"a number > {ctx.get('gt')}"
+    if kind == "greater_than_equal":
+        return f"a number >= {ctx.get('ge')}"
+    if kind == "less_than_equal":
+        return f"a number <= {ctx.get('le')}"
+    if kind in ("too_short", "too_long", "tuple_type"):
+        return err["msg"].replace("Tuple should have", "").replace("Input should be", "").strip() or err["msg"]
+    if kind == "literal_error":
+        return "one of " + str(ctx.get("expected", ""))
+    if kind == "union_tag_invalid":
+        return "kind one of " + str(ctx.get("expected_tags", ""))
+    if kind == "union_tag_not_found":
+        return "a 'kind' key (step, sine, chirp or table)"
+    return err["msg"]
+
+
+def _found(err: dict) -> str:
+    if err["type"] == "scenario":
+        return err["ctx"]["found"]
+    if err["type"] == "missing":
+        return "nothing"
+    if err["type"] == "extra_forbidden":
+        return repr(err["loc"][-1]) if err["loc"] else repr(err.get("input"))
+    value = err.get("input")
+    text = repr(value)
+    return text if len(text) < 80 else text[:77] + "..."
+
+
+def problems_from_validation(exc: ValidationError) -> list[Problem]:
+    """Turn a pydantic ``ValidationError`` into a list of :class:`Problem` (path, expected, found)."""
+    return [Problem(_loc(tuple(e["loc"])), _expected(e), _found(e)) for e in exc.errors()]
+
+
+def scenario_from_dict(data: dict[str, Any], source: str | None = None) -> Scenario:
+    """Validate a scenario given as a dict (as read from TOML).
+
+    Raises
+    ------
+    ScenarioError
+        With every problem found (field path, expected, found).
+    """
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(problems_from_validation(exc), source) from None
+
+
+def load_scenario(name_or_path: str | Path = "envisat") -> Scenario:
+    """Load a built-in scenario by name (``"envisat"``) or a TOML file by path.
+
+    Raises
+    ------
+    ScenarioError
+        For an unknown name, a missing or unreadable file, invalid TOML, or any schema problem.
+    """
+    text = str(name_or_path)
+    builtins = builtin_scenarios()
+    if text in builtins:
+        source = f"builtin:{text}"
+        raw = (resources.files("postcapture.config") / "scenarios" / f"{text}.toml").read_text(encoding="utf-8")
+    else:
+        path = Path(text)
+        source = str(path)
+        if not path.is_file():
+            looks_like_name = path.suffix == "" and "/" not in text
+            what = "unknown scenario name" if looks_like_name else "no such file"
+            raise ScenarioError(
+                [Problem("scenario", f"a built-in name ({', '.join(builtins)}) or an existing TOML file", f"{what} {text!r}")],
+                source,
+            )
+        try:
+            raw = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ScenarioError([Problem("scenario", "a readable UTF-8 TOML file", str(exc))], source) from None
+    try:
+        data = tomllib.loads(raw)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError([Problem("scenario", "valid TOML", str(exc))], source) from None
+    return scenario_from_dict(data, source)

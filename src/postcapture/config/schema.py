@@ -1,0 +1,234 @@
+"""The scenario: typed, immutable description of the post-capture system and its run.
+
+Frames: N inertial; B chaser body (origin at the chaser centre of mass); L_i arm link i (joint i
+frame); G grasp frame on the arm's tool; T target body (origin at the target centre of mass);
+P panel root frame (x along the panel length from root to tip, y across its width, z normal).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from postcapture.config.excitation import Excitation, channel_index
+from postcapture.config.flexibility import refine_stiffness
+from postcapture.config.types import (
+    AxisName,
+    Frozen,
+    Mat3,
+    NonNegativeFloat,
+    Pose,
+    PositiveFloat,
+    Vec3,
+    check_inertia,
+    problem,
+)
+from typing import Annotated
+
+__all__ = [
+    "Panel",
+    "Chaser",
+    "Target",
+    "ArmJoint",
+    "Arm",
+    "InitialState",
+    "Simulation",
+    "Scenario",
+    "INTEGRATORS",
+    "VARIANTS",
+]
+
+INTEGRATORS = ("sdirk3", "sdirk2", "rk4")
+VARIANTS = ("flexible", "stiff", "rigid")
+Inertia = Annotated[Mat3, check_inertia]
+
+
+class Panel(Frozen):
+    """A flexible rectangular panel: N rigid segments on bending hinges plus a root torsion hinge.
+
+    ``bending_stiffness`` lists the N hinge stiffnesses from root to tip (N m/rad); for another
+    number of segments use :meth:`with_segments`, which derives them from the piecewise-constant
+    EI(s) they imply (see :mod:`postcapture.config.flexibility`).
+    """
+
+    name: str = Field(min_length=1)
+    mount: Pose = Pose()
+    length: PositiveFloat
+    width: PositiveFloat
+    mass: PositiveFloat
+    segments: int = Field(ge=1, le=1000)
+    bending_stiffness: tuple[PositiveFloat, ...]
+    torsion_stiffness: PositiveFloat
+    damping_beta: NonNegativeFloat = 0.0  # stiffness-proportional damping d = beta k (s)
+
+    @model_validator(mode="after")
+    def _count(self):
+        if len(self.bending_stiffness) != self.segments:
+            raise problem(
+                f"{self.segments} bending stiffnesses (one per segment)", f"{len(self.bending_stiffness)}"
+            )
+        return self
+
+    def with_segments(self, n: int) -> "Panel":
+        """The same panel cut into ``n`` segments, stiffnesses derived from EI(s)."""
+        k = refine_stiffness(self.bending_stiffness, self.length, n)
+        return self.model_copy(update={"segments": int(n), "bending_stiffness": tuple(float(x) for x in k)})
+
+
+class _Body(Frozen):
+    mass: PositiveFloat
+    inertia: Inertia
+    panels: tuple[Panel, ...] = ()
+    # True when mass, centre of mass and inertia describe the whole spacecraft with its panels
+    # undeformed; the model then subtracts the panels to get the rigid hub.
+    properties_include_panels: bool = False
+
+    @field_validator("panels")
+    @classmethod
+    def _unique(cls, panels):
+        names = [p.name for p in panels]
+        if len(set(names)) != len(names):
+            raise problem("unique panel names", names)
+        return panels
+
+
+class Chaser(_Body):
+    """The chaser spacecraft; B is at its centre of mass (with panels if they are included)."""
+
+    accelerometer_position: Vec3 = (0.0, 0.0, 0.0)  # in B (m)
+
+
+class Target(_Body):
+    """The captured target. ``grasp_to_com`` is the pose of T (origin at the CoM) in the grasp frame G."""
+
+    grasp_to_com: Pose = Pose()
+
+
+class ArmJoint(Frozen):
+    """One revolute arm joint, its elastic transmission and the link it carries.
+
+    ``origin`` places the joint frame in the previous link's frame (the arm base for joint 1); the joint
+    turns about ``axis`` of its own frame. The joint spring pulls the link angle towards ``rest_angle``
+    (the braked or commanded position). With ``rotor_inertia`` the joint follows Spong's flexible-joint
+    model: a motor rotor with that (reflected) inertia, held at ``rest_angle`` by a servo of stiffness
+    ``servo_stiffness`` and damping ``servo_damping``, drives the link through the joint spring, and the
+    motor torque input acts on the rotor.
+    """
+
+    axis: AxisName
+    origin: Pose = Pose()
+    mass: PositiveFloat
+    com: Vec3 = (0.0, 0.0, 0.0)
+    inertia: Inertia
+    stiffness: PositiveFloat
+    damping: NonNegativeFloat = 0.0
+    rest_angle: float = 0.0
+    rotor_inertia: PositiveFloat | None = None
+    servo_stiffness: PositiveFloat | None = None
+    servo_damping: NonNegativeFloat | None = None
+
+
+class Arm(Frozen):
+    """The manipulator: base pose in B, joints from base to tool, tool (grasp) frame in the last link."""
+
+    base: Pose = Pose()
+    joints: tuple[ArmJoint, ...] = Field(min_length=1)
+    tool: Pose = Pose()
+
+
+class InitialState(Frozen):
+    """Initial state. The stack starts turning as one body at ``omega_BN_B`` about its centre of mass.
+
+    ``elastic = "relaxed"`` starts the joints at the deflection where the elastic coordinates have no
+    acceleration at the initial rates (no start-up transient); ``"undeformed"`` at their rest angles.
+    """
+
+    q_BN: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    omega_BN_B: Vec3 = (0.0, 0.0, 0.0)  # rad/s
+    com_velocity_N: Vec3 = (0.0, 0.0, 0.0)  # m/s
+    elastic: Literal["relaxed", "undeformed"] = "relaxed"
+
+    @field_validator("q_BN")
+    @classmethod
+    def _unit(cls, q):
+        n = float(np.linalg.norm(q))
+        if abs(n - 1.0) > 1e-6:
+            raise problem("a unit quaternion (w, x, y, z)", f"norm {n:.9g}")
+        return q
+
+
+class Simulation(Frozen):
+    """Run settings: duration, integrator, its step and the output sample period (s)."""
+
+    duration: PositiveFloat = 100.0
+    integrator: Literal["sdirk3", "sdirk2", "rk4"] = "sdirk3"
+    step: PositiveFloat = 0.05
+    sample_period: PositiveFloat = 0.1
+
+    @model_validator(mode="after")
+    def _grid(self):
+        ratio = self.sample_period / self.step
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise problem(f"sample_period a whole multiple of step = {self.step}", self.sample_period)
+        return self
+
+
+class Scenario(Frozen):
+    """A complete post-capture scenario."""
+
+    name: str = Field(min_length=1)
+    description: str = ""
+    chaser: Chaser
+    arm: Arm | None = None
+    target: Target | None = None
+    excitation: tuple[Excitation, ...] = ()
+    initial: InitialState = InitialState()
+    simulation: Simulation = Simulation()
+
+    @model_validator(mode="after")
+    def _consistency(self):
+        if self.target is not None and self.arm is None:
+            raise problem("an arm to hold the target", "a target without an arm")
+        n_arm = len(self.arm.joints) if self.arm is not None else 0
+        for i, ex in enumerate(self.excitation):
+            try:
+                channel_index(ex.channel, n_arm)
+            except ValueError:
+                raise problem(f"excitation[{i}].channel on an existing input (arm has {n_arm} joints)", ex.channel)
+        return self
+
+    @property
+    def n_arm(self) -> int:
+        """Number of arm joints."""
+        return len(self.arm.joints) if self.arm is not None else 0
+
+    @property
+    def n_inputs(self) -> int:
+        """Length of the input vector ``u = [F_B, tau_B, tau_arm]``."""
+        return 6 + self.n_arm
+
+    def panels(self) -> list[tuple[str, Panel]]:
+        """Every panel with its host body ("chaser" or "target")."""
+        out = [("chaser", p) for p in self.chaser.panels]
+        if self.target is not None:
+            out += [("target", p) for p in self.target.panels]
+        return out
+
+    def with_panel_segments(self, n: int) -> "Scenario":
+        """The same scenario with every panel cut into ``n`` segments."""
+        chaser = self.chaser.model_copy(update={"panels": tuple(p.with_segments(n) for p in self.chaser.panels)})
+        update = {"chaser": chaser}
+        if self.target is not None:
+            update["target"] = self.target.model_copy(
+                update={"panels": tuple(p.with_segments(n) for p in self.target.panels)}
+            )
+        return self.model_copy(update=update)
+
+    def with_updates(self, **sections) -> "Scenario":
+        """A validated copy with whole sections replaced, e.g. ``simulation=...``."""
+        data = self.model_dump()
+        for key, value in sections.items():
+            data[key] = value.model_dump() if hasattr(value, "model_dump") else value
+        return Scenario.model_validate(data)

@@ -1,0 +1,99 @@
+"""Shared field types and physical validators of the scenario schema.
+
+Every validator raises :class:`pydantic_core.PydanticCustomError` with ``expected`` and ``found`` in
+its context, so that :mod:`postcapture.config.loader` can report each problem as
+``path: expected ..., found ...``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic_core import PydanticCustomError
+
+__all__ = [
+    "Frozen",
+    "Vec3",
+    "Mat3",
+    "PositiveFloat",
+    "NonNegativeFloat",
+    "Pose",
+    "AxisName",
+    "problem",
+    "check_inertia",
+    "rpy_matrix",
+]
+
+
+def problem(expected: str, found: object) -> PydanticCustomError:
+    """A validation error whose message reads ``expected ..., found ...``."""
+    return PydanticCustomError(
+        "scenario", "expected {expected}, found {found}", {"expected": expected, "found": str(found)}
+    )
+
+
+class Frozen(BaseModel):
+    """Base of every scenario object: immutable, no unknown keys, finite numbers only."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+PositiveFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+NonNegativeFloat = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+Vec3 = tuple[float, float, float]
+Mat3 = tuple[Vec3, Vec3, Vec3]
+AxisName = Literal["x", "y", "z"]
+
+
+def _check_inertia(value: Mat3) -> Mat3:
+    I = np.array(value, dtype=float)
+    if not np.allclose(I, I.T, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(I).max())):
+        raise problem("a symmetric 3x3 inertia tensor", f"I - I^T with max |entry| {np.abs(I - I.T).max():.3g}")
+    eig = np.linalg.eigvalsh(I)
+    if eig[0] <= 0.0:
+        raise problem("a positive definite inertia tensor (kg m^2)", f"eigenvalues {np.round(eig, 6).tolist()}")
+    a, b, c = eig
+    # Principal moments of a physical body satisfy the triangle inequality A + B >= C.
+    if a + b < c * (1.0 - 1e-9):
+        raise problem(
+            "principal moments satisfying the triangle inequality (I1 + I2 >= I3)",
+            f"{a:.6g} + {b:.6g} < {c:.6g}",
+        )
+    return value
+
+
+check_inertia = AfterValidator(_check_inertia)
+
+
+def rpy_matrix(rpy) -> np.ndarray:
+    """Rotation matrix of URDF roll-pitch-yaw angles (rad): ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+
+    The matrix maps vectors in the child frame to the parent frame (an active rotation, as URDF).
+    """
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    Ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
+
+
+class Pose(Frozen):
+    """Placement of a child frame in a parent frame, URDF style.
+
+    ``xyz`` is the child origin in parent components (m); ``rpy`` are roll-pitch-yaw angles (rad) with
+    ``R_parent_child = Rz(yaw) Ry(pitch) Rx(roll)``.
+    """
+
+    xyz: Vec3 = (0.0, 0.0, 0.0)
+    rpy: Vec3 = (0.0, 0.0, 0.0)
+
+    def rotation(self) -> np.ndarray:
+        """Rotation matrix mapping child components to parent components."""
+        return rpy_matrix(self.rpy)
+
+    def translation(self) -> np.ndarray:
+        """Child origin in parent components (m)."""
+        return np.array(self.xyz, dtype=float)
