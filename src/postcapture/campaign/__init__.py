@@ -1,0 +1,1 @@
+"""Campaigns: one scenario end to end, Monte Carlo on Dask, results files, benchmarks."""

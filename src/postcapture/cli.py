@@ -1,0 +1,245 @@
+"""The ``postcapture`` command line: parse, call one library function, print.
+
+User errors (bad scenario, missing file, bad option) print one message on stderr and exit with 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import sys
+
+__all__ = ["main"]
+
+EXAMPLES = """examples:
+  postcapture simulate --duration 60 --json
+  postcapture simulate --scenario my_scenario.toml --variant stiff --out run.nc
+  postcapture modes --count 12
+  postcapture bench --json
+"""
+
+
+def _single_threaded() -> None:
+    """Small matrices are faster on one BLAS thread; this must run before numpy is imported."""
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+
+
+def _progress_bar(desc: str):
+    """A tqdm bar on stderr (hidden when stderr is not a terminal) and a fraction callback."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=1000, desc=desc, unit="‰", disable=None, file=sys.stderr, leave=False)
+
+    def update(fraction: float) -> None:
+        target = int(round(fraction * 1000))
+        if target > bar.n:
+            bar.update(target - bar.n)
+
+    return bar, update
+
+
+def _print_json(obj) -> None:
+    print(json.dumps(obj, indent=2, default=float))
+
+
+# ---------------------------------------------------------------------------------------- commands
+def _cmd_simulate(args) -> int:
+    from postcapture.config import load_scenario
+    from postcapture.dynamics.simulate import drift_metrics, simulate
+
+    scenario = load_scenario(args.scenario)
+    bar, update = _progress_bar("simulate")
+    with bar:
+        traj = simulate(
+            scenario,
+            variant=args.variant,
+            duration=args.duration,
+            panel_segments=args.panel_segments,
+            damping=not args.undamped,
+            excitation=not args.free,
+            integrator=args.integrator,
+            step=args.step,
+            progress=update,
+        )
+    out = args.out or f"results/simulate_{scenario.name}_{args.variant}.nc"
+    traj.to_netcdf(out)
+    wall = traj.attrs["wall_s"]
+    duration = float(traj.t[-1] - traj.t[0])
+    summary = {
+        "scenario": scenario.name,
+        "variant": args.variant,
+        "duration_s": duration,
+        "wall_s": wall,
+        "real_time_factor": duration / wall if wall > 0 else float("inf"),
+        "n_dof": int(traj.attrs["nv"]),
+        "panel_segments": traj.attrs["panel_segments"],
+        "integrator": traj.attrs["integrator"],
+        "step_s": traj.attrs["step_s"],
+        **drift_metrics(traj),
+        "out": str(out),
+    }
+    if args.json:
+        _print_json(summary)
+    else:
+        print(f"simulated {duration:g} s of '{scenario.name}' ({args.variant}, {summary['n_dof']} DoF, "
+              f"{summary['integrator']} h = {summary['step_s']:g} s) in {wall:.2f} s: "
+              f"{summary['real_time_factor']:.1f}x real time")
+        print(f"energy balance drift {summary['energy_drift_rel']:.2e}, "
+              f"angular momentum balance drift {summary['angular_momentum_drift_rel']:.2e}")
+        print(f"trajectory written to {out}")
+    return 0
+
+
+def _cmd_modes(args) -> int:
+    from postcapture.config import load_scenario
+    from postcapture.dynamics.build import build_system
+    from postcapture.dynamics.modes import structural_modes
+
+    scenario = load_scenario(args.scenario)
+    system = build_system(scenario, args.variant, panel_segments=args.panel_segments)
+    modes = structural_modes(system)[: args.count]
+    rows = [
+        {
+            "mode": i + 1,
+            "frequency_hz": m.frequency_hz,
+            "damping_ratio": m.damping_ratio,
+            "dominant": m.dominant,
+            "strain_energy_share": {k: v for k, v in m.energy_share.items() if v >= 0.01},
+        }
+        for i, m in enumerate(modes)
+    ]
+    if args.json:
+        _print_json({"scenario": scenario.name, "variant": args.variant, "n_dof": system.nv, "modes": rows})
+        return 0
+    print(f"elastic modes of '{scenario.name}' ({args.variant}, {system.nv} DoF) at rest; "
+          "share = strain energy held by each group")
+    print(f"{'#':>3} {'f (Hz)':>10} {'zeta':>7}  what moves")
+    for r in rows:
+        share = ", ".join(f"{k} {v:.0%}" for k, v in sorted(r["strain_energy_share"].items(), key=lambda kv: -kv[1]))
+        print(f"{r['mode']:>3} {r['frequency_hz']:>10.4f} {r['damping_ratio']:>7.4f}  {share}")
+    return 0
+
+
+def _cmd_bench(args) -> int:
+    from postcapture.campaign.bench import run_benchmark
+
+    bar_msgs = []
+
+    def progress(msg: str) -> None:
+        bar_msgs.append(msg)
+        if not args.json:
+            print(f"  ... {msg}", file=sys.stderr)
+
+    result = run_benchmark(args.scenario, duration=args.duration, progress=progress)
+    if args.json:
+        _print_json(result)
+        return 0
+    print(f"truth simulation, {result['integrator']} h = {result['step_s']} s, outputs every {result['sample_period_s']} s:")
+    for n in (5, 20, 50):
+        print(f"  N = {n:>2} panel segments ({result[f'n_dof_n{n}']} DoF): {result[f'rtf_n{n}']:.1f}x real time")
+    print(f"  exact step Jacobian at N = 5: {result['step_jacobian_ms_n5']:.2f} ms")
+    print(f"  model build at N = 50: {result['build_s_n50'] * 1e3:.1f} ms")
+    m = result["machine"]
+    print(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, Pinocchio {m['pinocchio']}")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------- parser
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, found {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number, found {text!r}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, found {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, found {text!r}")
+    return value
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit status 1 (argparse's default is 2)
+        self.print_usage(sys.stderr)
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        raise SystemExit(1)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (also used to document the CLI)."""
+    from postcapture import __version__
+
+    parser = _Parser(
+        prog="postcapture",
+        description="Post-capture simulation and estimation: a chaser holding Envisat through a flexible arm.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"postcapture {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    def scenario_args(p):
+        p.add_argument("--scenario", default="envisat", help="built-in name or TOML path (default: envisat)")
+        p.add_argument("--variant", default="flexible", choices=["flexible", "stiff", "rigid"])
+        p.add_argument("--panel-segments", type=_positive_int, default=None, metavar="N",
+                       help="cut every panel into N segments (stiffnesses derived from EI(s))")
+
+    p = sub.add_parser("simulate", help="truth simulation to a NetCDF file")
+    scenario_args(p)
+    p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="seconds (default: scenario)")
+    p.add_argument("--integrator", choices=["sdirk3", "sdirk2", "rk4"], default=None)
+    p.add_argument("--step", type=_positive_float, default=None, metavar="H", help="integrator step (s)")
+    p.add_argument("--undamped", action="store_true", help="set every damper to zero")
+    p.add_argument("--free", action="store_true", help="no excitation inputs")
+    p.add_argument("--out", default=None, metavar="FILE", help="NetCDF output (default: results/simulate_<scenario>_<variant>.nc)")
+    p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser("modes", help="natural frequencies and what moves in each mode")
+    scenario_args(p)
+    p.add_argument("--count", type=_positive_int, default=20, help="number of modes to list (default 20)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_modes)
+
+    p = sub.add_parser("bench", help="speed benchmark (real-time factors, step Jacobian, build time)")
+    p.add_argument("--scenario", default="envisat")
+    p.add_argument("--duration", type=_positive_float, default=60.0, metavar="S", help="simulated seconds per case")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``postcapture`` console script; returns the exit status."""
+    _single_threaded()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    from postcapture.core.errors import PostcaptureError
+
+    try:
+        return int(args.func(args) or 0)
+    except PostcaptureError as exc:
+        print(f"postcapture: error: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        print(f"postcapture: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("postcapture: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

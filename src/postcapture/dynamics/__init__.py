@@ -1,0 +1,1 @@
+"""Multibody plant: Pinocchio model, springs, integrators, exact derivatives, truth simulation."""

@@ -1,0 +1,222 @@
+"""The plant as a dynamical system: ``ddq = f(q, v, t, u, m)`` with its analytic derivatives.
+
+Configuration ``q`` (length ``nq``) lives on the Lie group of the tree: the chaser root is a Pinocchio
+free flyer (position of B in N, then the quaternion of R_NB stored as x, y, z, w), every other
+coordinate is a revolute angle. Velocities ``v`` (length ``nv``) are the root's body twist (linear, then
+angular, in B components) followed by the joint rates. Tangent perturbations of ``q`` are right
+perturbations, as in Pinocchio (``pinocchio.integrate(model, q, dq)``).
+
+Generalised forces: ``tau = tau_springs(q, v) + B u``, where ``u = [F_B (3), tau_B (3), tau_arm]``
+(force at the chaser's origin and torque, both in B; the arm motor torques), and the springs and
+dampers are linear in the elastic coordinates ``e = q[7:]`` (see :class:`SpringSet`).
+
+The target mass ``m`` is a parameter: it scales the target hub's mass at a fixed centre of mass and a
+fixed inertia about that centre of mass (the panels keep their mass).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from postcapture.dynamics.assembly import Assembly
+from postcapture.dynamics.excitation import InputSchedule
+
+__all__ = ["System"]
+
+
+class System:
+    """Dynamics of an assembled model under a known input schedule.
+
+    Parameters
+    ----------
+    assembly : Assembly
+        The model, layout and springs from :func:`postcapture.dynamics.assembly.assemble`.
+    inputs : InputSchedule
+        The known excitation ``u(t)``.
+    """
+
+    def __init__(self, assembly: Assembly, inputs: InputSchedule | None = None):
+        if inputs is None:
+            inputs = InputSchedule((), assembly.layout.n_arm)
+        self.assembly = assembly
+        self.model = assembly.model
+        self.data = self.model.createData()
+        self.layout = assembly.layout
+        self.inputs = inputs
+        self.nq, self.nv = self.model.nq, self.model.nv
+        ff = self.layout.free_flyer
+        self.n_root_v, self.n_root_q = (6, 7) if ff else (0, 0)
+        self.n_e = self.nv - self.n_root_v
+        self.n_u = inputs.n_inputs
+        self.scenario = None
+        sp = assembly.springs
+        A = sp.matrix(self.n_e)
+        k, d, r = (np.asarray(x, dtype=float) for x in (sp.k, sp.d, sp.rest))
+        self._A, self._k, self._r = A, k, r
+        self.K_e = A.T @ (k[:, None] * A)
+        self.D_e = A.T @ (d[:, None] * A)
+        self._tau0 = A.T @ (k * r)
+        # Fast path: without Spong rotors every spring acts on one coordinate and K, D are diagonal.
+        self._diag = bool(np.count_nonzero(self.K_e - np.diag(np.diag(self.K_e))) == 0
+                          and np.count_nonzero(self.D_e - np.diag(np.diag(self.D_e))) == 0)
+        self._k_diag = np.diag(self.K_e).copy()
+        self._d_diag = np.diag(self.D_e).copy()
+        self.motor_v = np.asarray(self.layout.motor_v, dtype=int)
+        self._ident = np.eye(self.nv)
+        # Input matrix B (nv x n_u): chaser wrench on the root, motor torques on their joints.
+        B = np.zeros((self.nv, self.n_u))
+        if ff:
+            B[:6, :6] = np.eye(6)
+        for i, iv in enumerate(self.motor_v):
+            B[iv, 6 + i] = 1.0
+        self.B = B
+        self._target = None
+        if self.layout.has_target:
+            fid = self.model.getFrameId("target")
+            frame = self.model.frames[fid]
+            hub = self.layout.target_hub
+            self._t_joint = frame.parentJoint
+            self._t_X = frame.placement
+            hub_I = pin.Inertia(hub.mass, hub.com, hub.inertia)
+            self._t_base = self.model.inertias[self._t_joint].toDynamicParameters() - self._t_X.act(hub_I).toDynamicParameters()
+            self._t_unit = self._t_X.act(pin.Inertia(1.0, hub.com, np.zeros((3, 3))))
+            self._t_hub = hub
+            self._target = hub.mass + self.layout.target_panel_mass
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def target_mass(self) -> float:
+        """Total target mass (kg), hub plus panels. Setting it changes the hub mass only."""
+        if self._target is None:
+            raise AttributeError("this scenario has no target")
+        return self._target
+
+    @target_mass.setter
+    def target_mass(self, value: float) -> None:
+        if self._target is None:
+            raise AttributeError("this scenario has no target")
+        m_hub = float(value) - self.layout.target_panel_mass
+        if not m_hub > 0.0:
+            raise ValueError(f"target_mass: expected more than the panels' {self.layout.target_panel_mass} kg, found {value}")
+        hub = pin.Inertia(m_hub, self._t_hub.com, self._t_hub.inertia)
+        params = self._t_base + self._t_X.act(hub).toDynamicParameters()
+        self.model.inertias[self._t_joint] = pin.Inertia.FromDynamicParameters(params)
+        self._target = float(value)
+
+    def copy(self) -> "System":
+        """An independent system (own model and data), e.g. for a filter with its own mass estimate."""
+        other = System.__new__(System)
+        other.__dict__.update(self.__dict__)
+        other.model = pin.Model(self.model)
+        other.data = other.model.createData()
+        return other
+
+    # ------------------------------------------------------------------ forces
+    def spring_torque(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Generalised spring and damper forces, shape (nv,)."""
+        tau = np.zeros(self.nv)
+        if self.n_e:
+            r, rq = self.n_root_v, self.n_root_q
+            if self._diag:
+                tau[r:] = self._tau0 - self._k_diag * q[rq:] - self._d_diag * v[r:]
+            else:
+                tau[r:] = self._tau0 - self.K_e @ q[rq:] - self.D_e @ v[r:]
+        return tau
+
+    def input_vector(self, t: float, u_extra=None, left: bool = False) -> np.ndarray:
+        """``u(t) + u_extra``, shape (n_u,); ``left`` takes the schedule's left limit at ``t``."""
+        u = self.inputs(t, left)
+        return u if u_extra is None else u + u_extra
+
+    def force_from_inputs(self, q, v, u) -> np.ndarray:
+        """``tau = tau_springs(q, v) + B u``."""
+        tau = self.spring_torque(q, v)
+        if self.n_root_v:
+            tau[:6] += u[:6]
+        if self.motor_v.size:
+            tau[self.motor_v] += u[6:]
+        return tau
+
+    def generalized_force(self, q, v, t: float, u_extra=None) -> np.ndarray:
+        """``tau = tau_springs + B (u(t) + u_extra)``."""
+        return self.force_from_inputs(q, v, self.input_vector(t, u_extra))
+
+    # ------------------------------------------------------------------ dynamics
+    def acceleration(self, q, v, t: float, u_extra=None) -> np.ndarray:
+        """Generalised acceleration ``ddq`` (nv,) by Featherstone's articulated-body algorithm."""
+        return pin.aba(self.model, self.data, q, v, self.generalized_force(q, v, t, u_extra))
+
+    def acceleration_u(self, q, v, u) -> np.ndarray:
+        """``ddq`` for a given input vector ``u`` (n_u,) instead of the schedule."""
+        return pin.aba(self.model, self.data, q, v, self.force_from_inputs(q, v, u))
+
+    def derivatives(self, q, v, t: float, u_extra=None):
+        """See :meth:`derivatives_u`; the inputs come from the schedule at ``t`` plus ``u_extra``."""
+        return self.derivatives_u(q, v, self.input_vector(t, u_extra))
+
+    def derivatives_u(self, q, v, u):
+        """Acceleration and its exact partial derivatives.
+
+        Returns
+        -------
+        ddq : ndarray, shape (nv,)
+        ddq_dq : ndarray, shape (nv, nv)
+            With respect to a right tangent perturbation of ``q``, springs included.
+        ddq_dv : ndarray, shape (nv, nv)
+            Dampers included.
+        Minv : ndarray, shape (nv, nv)
+            Inverse mass matrix (= d ddq / d tau).
+        """
+        tau = self.force_from_inputs(q, v, u)
+        dq, dv, Minv = pin.computeABADerivatives(self.model, self.data, q, v, tau)
+        ddq = self.data.ddq.copy()
+        dq, dv, Minv = np.array(dq), np.array(dv), np.array(Minv)
+        if self.n_e:
+            r = self.n_root_v
+            dq[:, r:] -= Minv[:, r:] @ self.K_e
+            dv[:, r:] -= Minv[:, r:] @ self.D_e
+        return ddq, dq, dv, Minv
+
+    def ddq_dmass(self, q, v, ddq, Minv) -> np.ndarray:
+        """Exact derivative of ``ddq`` with respect to the target mass at fixed ``(q, v, tau)``.
+
+        The inverse dynamics ``M ddq + b = tau`` are linear in the inertias, so
+        ``d ddq/dm = -Minv J_T^T (I_1 a_T + v_T x* I_1 v_T)`` with ``I_1`` a 1 kg point at the hub's
+        centre of mass and ``J_T``, ``v_T``, ``a_T`` the Jacobian, twist and acceleration of the body
+        carrying the target, all in its local frame.
+        """
+        model, data, j = self.model, self.data, self._t_joint
+        pin.forwardKinematics(model, data, q, v, ddq)
+        J = pin.computeJointJacobian(model, data, q, j)
+        vj, aj = data.v[j], data.a[j]
+        f = self._t_unit * aj + vj.cross(self._t_unit * vj)
+        return -Minv @ (J.T @ f.vector)
+
+    # ------------------------------------------------------------------ energy
+    def elastic_energy(self, q) -> float:
+        """Potential energy stored in the springs (J)."""
+        if not self.n_e:
+            return 0.0
+        delta = self._A @ q[self.n_root_q :] - self._r
+        return 0.5 * float(self._k @ (delta * delta))
+
+    def kinetic_energy(self, q, v) -> float:
+        """Kinetic energy of the whole tree (J)."""
+        return float(pin.computeKineticEnergy(self.model, self.data, q, v))
+
+    def damping_power(self, v) -> float:
+        """Power dissipated by the dampers (W, >= 0)."""
+        if not self.n_e:
+            return 0.0
+        w = v[self.n_root_v :]
+        return float(w @ (self.D_e @ w))
+
+    # ------------------------------------------------------------------ Lie group
+    def integrate(self, q, dq) -> np.ndarray:
+        """``q (+) dq`` on the configuration group."""
+        return pin.integrate(self.model, q, dq)
+
+    def difference(self, q0, q1) -> np.ndarray:
+        """Tangent vector ``dq`` with ``q0 (+) dq = q1``."""
+        return pin.difference(self.model, q0, q1)
