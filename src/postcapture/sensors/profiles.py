@@ -1,0 +1,129 @@
+"""Named sensor profiles: ``reference`` (the reference work's tuning) and ``realistic`` (flight-class units).
+
+This module is where datasheet units (arcsec, deg/h, deg/sqrt(h), micro-g) become SI, through the
+factors of :mod:`postcapture.core.units`; every number below states its source or says it is an
+assumption. A scenario picks a profile by name and may override single fields
+(``dataclasses.replace``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from postcapture.core.errors import Problem, ScenarioError
+from postcapture.core.units import ARCSEC, DEG_PER_HOUR, DEG_PER_SQRT_HOUR, HOUR, MICRO_G
+from postcapture.sensors.accelerometer import AccelerometerParams
+from postcapture.sensors.gyroscope import GyroParams
+from postcapture.sensors.joints import JointSensorParams
+from postcapture.sensors.star_tracker import StarTrackerParams
+
+__all__ = ["SensorProfile", "reference", "realistic", "PROFILES", "get_profile"]
+
+
+@dataclass(frozen=True, slots=True)
+class SensorProfile:
+    """The parameters of every sensor of the chaser, under one name.
+
+    Parameters
+    ----------
+    name : str
+        Profile name.
+    star_tracker : StarTrackerParams
+    gyro : GyroParams
+    accelerometer : AccelerometerParams
+    joints : JointSensorParams
+    """
+
+    name: str
+    star_tracker: StarTrackerParams
+    gyro: GyroParams
+    accelerometer: AccelerometerParams
+    joints: JointSensorParams
+
+
+def reference() -> SensorProfile:
+    """The reference work's numbers (thesis summary, section 6; ``physical-data.md``).
+
+    * Star tracker: R = 0.01^2 I3 rad^2, i.e. 0.01 rad (about 2063 arcsec) 1-sigma about every axis.
+    * Gyro: the reference does not give its gyro; we take the textbook MEKF example's
+      sigma_v = sqrt(10) 1e-7 rad/sqrt(s), sigma_u = sqrt(10) 1e-10 rad/s^1.5 (Crassidis & Junkins,
+      Markley & Crassidis examples) and an initial bias of 0.1 deg/h per axis (assumption).
+    * Accelerometer and joints: the mass filter's R_theta = diag(1e-4 I3, 1e-2 I7), i.e. 0.01 m/s^2
+      and 0.1 rad/s^2 1-sigma per sample (the reference does not say how noisy its data were: we
+      simulate the noise its filter assumes), no bias.
+    * Rates: 10 Hz for every sensor (assumption; the reference does not state them).
+    """
+    rate = 10.0
+    return SensorProfile(
+        name="reference",
+        star_tracker=StarTrackerParams(sigma_cross=0.01, sigma_roll=0.01, rate=rate),
+        gyro=GyroParams(
+            sigma_v=math.sqrt(10.0) * 1e-7,
+            sigma_u=math.sqrt(10.0) * 1e-10,
+            rate=rate,
+            initial_bias_B=np.full(3, 0.1 * DEG_PER_HOUR),
+        ),
+        accelerometer=AccelerometerParams(sigma=math.sqrt(1e-4), rate=rate),
+        joints=JointSensorParams(sigma=math.sqrt(1e-2), rate=rate, n_joints=7),
+    )
+
+
+def realistic() -> SensorProfile:
+    """Flight-class sensors.
+
+    * Star tracker: 2 arcsec cross-boresight and 10 arcsec roll, 1-sigma, at 10 Hz (a "few arcsec"
+      unit; high-end heads such as Sodern's HYDRA quote about 1 arcsec 3-sigma cross-boresight with a
+      roll error several times larger), boresight along body +z.
+    * Gyro, Astrix 120 class (Airbus datasheet): angle random walk 0.002 deg/sqrt(h)
+      (5.8e-7 rad/sqrt(s)); bias stability 0.01 deg/h, modelled as a random walk that drifts 0.01 deg/h
+      (1-sigma) in one hour: sigma_u = 0.01 deg/h / sqrt(3600 s) = 8.1e-10 rad/s^1.5. Initial bias
+      0.05 deg/h per axis with mixed signs (assumption: residual after ground calibration). 10 Hz.
+    * Accelerometer, navigation grade (assumption, order of magnitude of navigation-grade units in
+      Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed.,
+      2013, ch. 4): noise density 10 micro-g/sqrt(Hz), so sigma = 10 micro-g sqrt(10 Hz) = 3.1e-4 m/s^2
+      per 10 Hz sample; bias 30 micro-g per axis; bias random walk 10 micro-g per sqrt(h).
+    * Joint accelerations: 1e-3 rad/s^2 1-sigma per sample at 10 Hz (assumption: high-resolution
+      encoders differentiated twice, with filtering).
+    """
+    rate = 10.0
+    density = 10.0 * MICRO_G  # (m/s^2)/sqrt(Hz)
+    return SensorProfile(
+        name="realistic",
+        star_tracker=StarTrackerParams(sigma_cross=2.0 * ARCSEC, sigma_roll=10.0 * ARCSEC, rate=rate),
+        gyro=GyroParams(
+            sigma_v=0.002 * DEG_PER_SQRT_HOUR,
+            sigma_u=0.01 * DEG_PER_HOUR / math.sqrt(HOUR),
+            rate=rate,
+            initial_bias_B=np.array([0.05, -0.05, 0.05]) * DEG_PER_HOUR,
+        ),
+        accelerometer=AccelerometerParams(
+            sigma=density * math.sqrt(rate),
+            rate=rate,
+            bias_B=np.full(3, 30.0 * MICRO_G),
+            sigma_bias_walk=10.0 * MICRO_G / math.sqrt(HOUR),
+        ),
+        joints=JointSensorParams(sigma=1e-3, rate=rate, n_joints=7),
+    )
+
+
+PROFILES = {"reference": reference, "realistic": realistic}
+"""Registry of the named profiles: name -> function returning a fresh :class:`SensorProfile`."""
+
+
+def get_profile(name: str) -> SensorProfile:
+    """Return the named profile.
+
+    Raises
+    ------
+    ScenarioError
+        If the name is unknown; the message lists the known names.
+    """
+    try:
+        return PROFILES[name]()
+    except KeyError:
+        raise ScenarioError(
+            [Problem("sensors.profile", " or ".join(repr(k) for k in PROFILES), repr(name))]
+        ) from None
