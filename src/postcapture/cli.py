@@ -124,6 +124,8 @@ def _cmd_modes(args) -> int:
 
 
 def _cmd_bench(args) -> int:
+    if args.accuracy:
+        return _cmd_accuracy(args)
     from postcapture.campaign.bench import run_benchmark
 
     bar_msgs = []
@@ -144,6 +146,27 @@ def _cmd_bench(args) -> int:
     print(f"  model build at N = 50: {result['build_s_n50'] * 1e3:.1f} ms")
     m = result["machine"]
     print(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, Pinocchio {m['pinocchio']}")
+    return 0
+
+
+def _cmd_accuracy(args) -> int:
+    from postcapture.campaign.accuracy import integrator_accuracy
+
+    def progress(msg: str) -> None:
+        if not args.json:
+            print(f"  ... {msg}", file=sys.stderr)
+
+    result = integrator_accuracy(args.scenario, duration=args.duration if args.duration != 60.0 else 40.0, progress=progress)
+    if args.json:
+        _print_json(result)
+        return 0
+    print(f"largest deviation from {result['reference']} over {result['duration_s']:g} s")
+    for label in ("forced", "free"):
+        print(f"  {label}:")
+        print(f"    {'method':<18}{'attitude':>12}{'rate':>11}{'tip':>10}{'accel':>10}{'arm ddq':>10}{'wall':>8}")
+        for name, r in result[label].items():
+            print(f"    {name:<18}{r['attitude_arcsec']:>9.3g} as{r['rate_rad_s']:>11.2e}{r['tip_rel']:>10.2e}"
+                  f"{r['accel_rel']:>10.2e}{r['arm_ddq_rel']:>10.2e}{r['wall_s']:>7.1f}s")
     return 0
 
 
@@ -215,6 +238,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="speed benchmark (real-time factors, step Jacobian, build time)")
     p.add_argument("--scenario", default="envisat")
     p.add_argument("--duration", type=_positive_float, default=60.0, metavar="S", help="simulated seconds per case")
+    p.add_argument("--accuracy", action="store_true",
+                   help="instead: integrator accuracy against RK4 at 0.25 ms (40 s forced and free; minutes)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_bench)
     return parser

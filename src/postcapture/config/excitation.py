@@ -57,13 +57,24 @@ class _Window(Frozen):
 
 
 class Step(_Window):
-    """Constant ``amplitude`` on ``[start, stop)`` (a pulse when ``stop`` is given)."""
+    """Constant ``amplitude`` on ``[start, stop)`` (a pulse when ``stop`` is given).
+
+    With ``rise_time > 0`` the value ramps linearly from 0 over ``rise_time`` after ``start`` and back
+    to 0 over ``rise_time`` before ``stop`` (thrust build-up and tail-off), a trapezoid.
+    """
 
     kind: Literal["step"]
     amplitude: float
+    rise_time: NonNegativeFloat = 0.0
 
     def __call__(self, t):
-        return np.where(self._active(t), self.amplitude, 0.0)
+        t = np.asarray(t, dtype=float)
+        if self.rise_time == 0.0:
+            return np.where(self._active(t), self.amplitude, 0.0)
+        ramp = np.clip((t - self.start) / self.rise_time, 0.0, 1.0)
+        if self.stop is not None:
+            ramp = np.minimum(ramp, np.clip((self.stop - t) / self.rise_time, 0.0, 1.0))
+        return np.where(self._active(t), self.amplitude * ramp, 0.0)
 
 
 class Sine(_Window):

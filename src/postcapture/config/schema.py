@@ -164,7 +164,7 @@ class Simulation(Frozen):
 
     duration: PositiveFloat = 100.0
     integrator: Literal["sdirk3", "sdirk2", "rk4"] = "sdirk3"
-    step: PositiveFloat = 0.05
+    step: PositiveFloat = 0.1
     sample_period: PositiveFloat = 0.1
 
     @model_validator(mode="after")

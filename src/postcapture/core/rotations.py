@@ -42,9 +42,9 @@ IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def cross3(a, b) -> np.ndarray:
-    """Cross product of two 3-vectors; several times faster than ``np.cross`` for single vectors."""
-    a0, a1, a2 = a
-    b0, b1, b2 = b
+    """Cross product of two 3-vectors; tens of times faster than ``np.cross`` for single vectors."""
+    a0, a1, a2 = a.tolist() if isinstance(a, np.ndarray) else a
+    b0, b1, b2 = b.tolist() if isinstance(b, np.ndarray) else b
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 

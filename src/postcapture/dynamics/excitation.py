@@ -26,8 +26,16 @@ def _scalar(profile) -> Callable[[float, bool], float]:
         return (start < t <= stop) if left else (start <= t < stop)
 
     if isinstance(profile, Step):
-        a = profile.amplitude
-        return lambda t, left: a if on(t, left) else 0.0
+        a, rise = profile.amplitude, profile.rise_time
+        if rise == 0.0:
+            return lambda t, left: a if on(t, left) else 0.0
+
+        def trapezoid(t, left):
+            if not on(t, left):
+                return 0.0
+            return a * min(1.0, (t - start) / rise, (stop - t) / rise)
+
+        return trapezoid
     if isinstance(profile, Sine):
         a, w, ph, off = profile.amplitude, 2 * math.pi * profile.frequency, profile.phase, profile.offset
         return lambda t, left: off + a * math.sin(w * (t - start) + ph) if on(t, left) else 0.0
@@ -74,10 +82,10 @@ class InputSchedule:
         left limit is returned instead: an integrator evaluates the end of a step ``[t_k, t_k + h]`` that
         way, so a switch exactly on the step grid is seen by the next step only (no O(h) error).
         """
-        u = np.zeros(self.n_inputs)
+        u = [0.0] * self.n_inputs
         for i, fn in self._terms:
             u[i] += fn(t, left)
-        return u
+        return np.array(u)
 
     def switching_times(self) -> list[float]:
         """Every start and stop time of the profiles (s): steps should land on them."""

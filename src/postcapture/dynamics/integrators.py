@@ -24,6 +24,7 @@ input offset ``u`` over the step, and the target mass, using Pinocchio's analyti
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -120,18 +121,22 @@ class LieRungeKutta:
     method : str or Tableau
         ``"sdirk3"`` (default), ``"sdirk2"`` or ``"rk4"``.
     newton_tol : float
-        Newton stops when the corrections' 2-norm is below ``newton_tol * (1 + |value|)``, or when it
-        stops shrinking within a factor 1000 of that (the round-off floor of the stiff springs).
+        Newton stops when the estimated error of the iterate, ``rho / (1 - rho)`` times the 2-norm of
+        the last correction relative to ``1 + |(xi, V)|`` at the predictor (``rho`` the observed contraction), is below ``newton_tol``; or
+        when corrections stop shrinking within a factor 1000 of it (the stiff springs' round-off floor).
     max_newton : int
         Iterations before the Newton matrix is refreshed at the stage; a second failure raises.
     reuse_jacobian : int
         Steps a Newton matrix is kept (simplified Newton); 1 refreshes it every step.
     """
 
-    def __init__(self, system: System, method: str | Tableau = "sdirk3", newton_tol: float = 1e-10, max_newton: int = 12, reuse_jacobian: int = 10):
+    def __init__(self, system: System, method: str | Tableau = "sdirk3", newton_tol: float = 1e-10, max_newton: int = 12, reuse_jacobian: int = 3):
         self.system = system
         self.tableau = TABLEAUX[method] if isinstance(method, str) else method
         self._stiffly_accurate = self.tableau.stiffly_accurate
+        self._A_rows = [[float(a) for a in row] for row in self.tableau.A]
+        self._c = [float(x) for x in self.tableau.c]
+        self._s = self.tableau.stages
         self.newton_tol = newton_tol
         self.max_newton = max_newton
         self.n_ff = system.n_root_v  # 6 with a free-flyer root, 0 on a fixed base
@@ -161,78 +166,100 @@ class LieRungeKutta:
         self._lu_age = 0
         self.stats["jacobians"] += 1
 
-    def _solve_stage(self, q, u_i, xi_bar, V_bar, hg, xi, V, t_start):
+    def _solve_stage(self, q, u_i, tau_i, xi_bar, V_bar, hg, xi, V, t_start):
         sysm = self.system
         model = sysm.model
+        integrate, accel, getrs, sqrt = pin.integrate, sysm.acceleration_tau, _getrs, math.sqrt
+        ff = self.n_ff
         tol2 = self.newton_tol**2
+        inv_scale = 1.0 / (1.0 + V @ V + xi @ xi)
         for attempt in range(2):
+            lu, piv, dq, _ = self._lu
             prev = np.inf
             for it in range(self.max_newton):
-                Kv = sysm.acceleration_u(pin.integrate(model, q, xi), V, u_i)
-                r_xi = xi - xi_bar - hg * self._kxi(xi, V)
-                r_V = V - V_bar - hg * Kv
-                lu, piv, dq, _ = self._lu
-                dV = _getrs(lu, piv, -r_V - hg * (dq @ r_xi))[0]
+                Kv = accel(integrate(model, q, xi), V, tau_i)
+                if ff:
+                    kx = V.copy()
+                    kx[:6] = dexpinv_apply(xi[:6], V[:6])
+                    r_xi = xi - xi_bar - hg * kx
+                else:
+                    r_xi = xi - xi_bar - hg * V
+                dV = getrs(lu, piv, V_bar - V + hg * (Kv - dq @ r_xi))[0]
                 dxi = hg * dV - r_xi
                 xi = xi + dxi
                 V = V + dV
-                # squared, scaled 2-norms of the corrections
-                err = max((dV @ dV) / (1.0 + V @ V), (dxi @ dxi) / (1.0 + xi @ xi))
-                if not err < np.inf:
+                # scaled 2-norm of the correction (squared), relative to the stage's size
+                err = float(dV @ dV + dxi @ dxi) * inv_scale
+                if not err < math.inf:
                     break
-                if err <= tol2 or (err <= 1e6 * tol2 and err >= 0.25 * prev):
+                # Error of the new iterate (Hairer & Wanner IV.8): rho / (1 - rho) |correction| with the
+                # observed contraction rho; on the first iteration only the correction itself.
+                rho2 = err / prev
+                est = err if it == 0 else (rho2 / (1.0 - min(sqrt(rho2), 0.9)) ** 2) * err
+                if est <= tol2 or (err <= 1e6 * tol2 and rho2 >= 0.0625):
                     self.stats["newton_iterations"] += it + 1
-                    self._max_it = max(self._max_it, it + 1)
+                    if it + 1 > self._max_it:
+                        self._max_it = it + 1
                     return xi, V  # converged, or stalled at the round-off floor
                 prev = err
             self.stats["newton_iterations"] += self.max_newton
             if attempt == 0:  # refresh the Newton matrix at the current stage guess and retry
-                self._newton_matrix(pin.integrate(model, q, xi), V, u_i, hg)
+                self._newton_matrix(integrate(model, q, xi), V, u_i, hg)
         raise SimulationError(
             f"{self.tableau.name}: Newton did not converge at t = {t_start:.6g} s (step too large or state non-finite)"
         )
 
     # ------------------------------------------------------------------ one step
     def _stages(self, q, v, t, h, u_extra, refresh):
-        tab = self.tableau
+        """Solve every stage; returns the stages ``(xi, V, t_i, u_i)``, their slopes and the step's end."""
         sysm = self.system
-        s = tab.stages
-        nv = sysm.nv
-        Kxi = np.zeros((s, nv))
-        Kv = np.zeros((s, nv))
+        A, c = self._A_rows, self._c
+        Kxi: list = []
+        Kv: list = []
         Z = []
         fsal = self._fsal if (self._fsal is not None and self._fsal[0] is q) else None
         self._max_it = 0
-        for i in range(s):
-            xi_bar = h * (tab.A[i, :i] @ Kxi[:i]) if i else np.zeros(nv)
-            V_bar = v + h * (tab.A[i, :i] @ Kv[:i]) if i else v.copy()
-            t_i = t + tab.c[i] * h
-            u_i = sysm.input_vector(t_i, u_extra, left=tab.c[i] == 1.0)
-            g = tab.A[i, i]
+        for i in range(self._s):
+            row = A[i]
+            if i:
+                xi_bar = (h * row[0]) * Kxi[0]
+                V_bar = v + (h * row[0]) * Kv[0]
+                for j in range(1, i):
+                    if row[j] != 0.0:
+                        xi_bar = xi_bar + (h * row[j]) * Kxi[j]
+                        V_bar = V_bar + (h * row[j]) * Kv[j]
+            else:
+                xi_bar = np.zeros(sysm.nv)
+                V_bar = v
+            t_i = t + c[i] * h
+            u_i = sysm.input_vector(t_i, u_extra, left=c[i] == 1.0)
+            tau_i = sysm.input_torque(u_i)
+            g = row[i]
             if g == 0.0:
                 xi, V = xi_bar, V_bar
-                Kxi[i] = self._kxi(xi, V)
-                Kv[i] = sysm.acceleration_u(pin.integrate(sysm.model, q, xi), V, u_i)
+                Kxi.append(self._kxi(xi, V))
+                Kv.append(sysm.acceleration_tau(pin.integrate(sysm.model, q, xi), V, tau_i))
             else:
                 hg = h * g
-                stale = self._lu is None or self._lu[3] != hg or self._lu_age >= self.reuse_jacobian
-                if i == 0 and (refresh or stale):
+                if i == 0 and (refresh or self._lu is None or self._lu[3] != hg or self._lu_age >= self.reuse_jacobian):
                     self._newton_matrix(q, v, sysm.input_vector(t, u_extra), hg)
                 if i:  # predictor: continue with the previous stage's slopes
                     xi0, V0 = xi_bar + hg * Kxi[i - 1], V_bar + hg * Kv[i - 1]
                 elif fsal is not None:  # the previous step's last slope
                     xi0, V0 = hg * v, v + hg * fsal[1]
                 else:
-                    xi0, V0 = hg * v, v.copy()
-                xi, V = self._solve_stage(q, u_i, xi_bar, V_bar, hg, xi0, V0, t)
-                Kxi[i] = (xi - xi_bar) / hg
-                Kv[i] = (V - V_bar) / hg
-            Z.append((xi, V, t_i))
+                    xi0, V0 = hg * v, v
+                xi, V = self._solve_stage(q, u_i, tau_i, xi_bar, V_bar, hg, xi0, V0, t)
+                inv = 1.0 / hg
+                Kxi.append((xi - xi_bar) * inv)
+                Kv.append((V - V_bar) * inv)
+            Z.append((xi, V, t_i, u_i))
         if self._stiffly_accurate:
             xi_end, v_end = Z[-1][0], Z[-1][1]
         else:
-            xi_end = h * (tab.b @ Kxi)
-            v_end = v + h * (tab.b @ Kv)
+            b = self.tableau.b
+            xi_end = h * sum(b[i] * Kxi[i] for i in range(self._s))
+            v_end = v + h * sum(b[i] * Kv[i] for i in range(self._s))
         if self._lu is not None:
             self._lu_age += 1
             if self._max_it > 4:  # slow convergence: refresh at the next step
@@ -278,8 +305,7 @@ class LieRungeKutta:
         Z, _, Kv, xi_end, v_end = self._stages(q, v, t, h, u_extra, refresh)
         model = self.system.model
         total = 0.0
-        for b_i, c_i, (xi, V, t_i) in zip(self.tableau.b, self.tableau.c, Z):
-            u_i = self.system.input_vector(t_i, u_extra, left=c_i == 1.0)
+        for b_i, (xi, V, _, u_i) in zip(self.tableau.b, Z):
             total = total + b_i * integrand(pin.integrate(model, q, xi), V, u_i)
         return self._finish(q, xi_end, v_end, Kv, t), v_end, h * total
 
@@ -298,13 +324,13 @@ class LieRungeKutta:
         dK = []  # (2nv, n_p) each
         base = np.zeros((2 * nv, n_p))
         base[nv:, nv : 2 * nv] = np.eye(nv)  # V_bar contains v_k
-        for i, (xi, V, t_i) in enumerate(Z):
+        for i, (xi, V, t_i, u_i) in enumerate(Z):
             dZbar = base.copy()
             for j in range(i):
                 if tab.A[i, j] != 0.0:
                     dZbar += h * tab.A[i, j] * dK[j]
             qi = pin.integrate(model, q, xi)
-            ddq, Aq, Av, Minv = sysm.derivatives_u(qi, V, sysm.input_vector(t_i, u_extra, left=tab.c[i] == 1.0))
+            ddq, Aq, Av, Minv = sysm.derivatives_u(qi, V, u_i)
             Jr = pin.dIntegrate(model, q, xi, pin.ArgumentPosition.ARG1)
             J0 = pin.dIntegrate(model, q, xi, pin.ArgumentPosition.ARG0)
             dKdZ = np.zeros((2 * nv, 2 * nv))

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from postcapture.core.rotations import cross3, quat_from_pinocchio
+from postcapture.core.rotations import cross3
 from postcapture.dynamics.system import System
 
 __all__ = ["OutputSpec", "output_specs", "accelerometer_reading", "OutputRecorder"]
@@ -81,13 +81,19 @@ class OutputRecorder:
         self._arm = np.asarray(system.layout.arm_v, dtype=int)
 
     def record(self, k: int, q: np.ndarray, v: np.ndarray, t: float) -> np.ndarray:
-        """Compute every output at sample ``k``; returns ``ddq``."""
+        """Compute every output at sample ``k``; returns ``ddq``.
+
+        One forward-kinematics pass (inside ``centerOfMass``) serves the frames, the momentum and the
+        kinetic energy.
+        """
         sysm = self.system
         model, data = sysm.model, sysm.data
         val = self.values
         u = sysm.inputs(t)
-        ddq = sysm.acceleration(q, v, t)
-        val["q_BN"][:, k] = quat_from_pinocchio(q[3:7])
+        ddq = sysm.acceleration_tau(q, v, sysm.input_torque(u))
+        quat = val["q_BN"]
+        sign = -1.0 if q[6] < 0.0 else 1.0  # w >= 0 on output; Pinocchio stores (x, y, z, w)
+        quat[0, k], quat[1, k], quat[2, k], quat[3, k] = sign * q[6], sign * q[3], sign * q[4], sign * q[5]
         val["omega_BN_B"][:, k] = v[3:6]
         val["r_BN_N"][:, k] = q[:3]
         val["accel_B"][:, k] = accelerometer_reading(v, ddq, self._acc_r)
@@ -95,18 +101,17 @@ class OutputRecorder:
             val["arm_q"][:, k] = q[self._arm + 1]
             val["arm_dq"][:, k] = v[self._arm]
             val["arm_ddq"][:, k] = ddq[self._arm]
-        if self._panels:
-            pin.framesForwardKinematics(model, data, q)
-            for p, f_root, f_tip in self._panels:
-                tip = data.oMf[f_root].actInv(data.oMf[f_tip].translation)
-                tip[0] -= p.length
-                val[f"tip_{p.name}"][:, k] = tip
-                val[f"torsion_{p.name}"][0, k] = q[p.torsion_v + 1] if p.torsion_v is not None else 0.0
         val["com_N"][:, k] = pin.centerOfMass(model, data, q, v)
-        pin.computeCentroidalMomentum(model, data, q, v)
-        val["momentum_N"][:, k] = data.hg.linear
-        val["angular_momentum_N"][:, k] = data.hg.angular
-        ke = sysm.kinetic_energy(q, v)
+        for p, f_root, f_tip in self._panels:
+            root = pin.updateFramePlacement(model, data, f_root)
+            tip = root.actInv(pin.updateFramePlacement(model, data, f_tip).translation)
+            tip[0] -= p.length
+            val[f"tip_{p.name}"][:, k] = tip
+            val[f"torsion_{p.name}"][0, k] = q[p.torsion_v + 1] if p.torsion_v is not None else 0.0
+        hg = pin.computeCentroidalMomentum(model, data)
+        val["momentum_N"][:, k] = hg.linear
+        val["angular_momentum_N"][:, k] = hg.angular
+        ke = pin.computeKineticEnergy(model, data)
         pe = sysm.elastic_energy(q)
         val["energy_kinetic"][0, k] = ke
         val["energy_elastic"][0, k] = pe

@@ -3,7 +3,9 @@
 The run also integrates, with the integrator's own quadrature, the energy and momentum the inputs and
 dampers put in or take out, so that conservation can be checked on any run:
 
-    E(t) - E(0) = W_in(t) - W_damp(t),     H_c(t) - H_c(0) = integral of the external moment about the CoM.
+    E(t) - E(0) = W_in(t) - W_damp(t),     H_O(t) - H_O(0) = integral of the external moment about O,
+
+with O the origin of N (the angular momentum about the centre of mass follows from H_O = H_c + c x p).
 """
 
 from __future__ import annotations
@@ -25,29 +27,36 @@ from postcapture.dynamics.trajectory import Trajectory
 __all__ = ["simulate", "simulate_system", "balance_integrand", "drift_metrics"]
 
 
+def _rotate(qx, qy, qz, qw, x0, x1, x2):
+    """``R(q) x`` for a unit quaternion (Pinocchio order x, y, z, w): B components to N, on floats."""
+    t0, t1, t2 = 2.0 * (qy * x2 - qz * x1), 2.0 * (qz * x0 - qx * x2), 2.0 * (qx * x1 - qy * x0)
+    return (x0 + qw * t0 + qy * t2 - qz * t1, x1 + qw * t1 + qz * t0 - qx * t2, x2 + qw * t2 + qx * t1 - qy * t0)
+
+
 def balance_integrand(system: System) -> Callable:
-    """``g(q, v, u) = [power in - power dissipated, external moment about the CoM (N), force (N)]``."""
-    model, data = system.model, system.data
+    """``g(q, v, u) = [power in - power dissipated, external moment about N's origin, force]`` (N components).
+
+    The moment is taken about the fixed origin of N (no centre of mass needed in the integrator's
+    loop); :func:`drift_metrics` moves the balance to the centre of mass with ``H_O = H_c + c x p``.
+    """
+    B_T = system.B.T.copy()
+    d_full = system._d_full if system._diag else None
     D = system.D_e
 
-    motor_v = system.motor_v
-    out = np.zeros(7)
-
     def g(q, v, u):
-        power = float(v[:6] @ u[:6])
-        if motor_v.size:
-            power += float(v[motor_v] @ u[6:])
+        power = float(u @ (B_T @ v))
         if system.n_e:
-            w = v[6:]
-            power -= float(w @ (D @ w))
-        C_NB = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()  # Eigen order (w, x, y, z)
-        F_N = C_NB @ u[:3]
-        com = pin.centerOfMass(model, data, q)
-        res = out.copy()
-        res[0] = power
-        res[1:4] = cross3(q[:3] - com, F_N) + C_NB @ u[3:6]
-        res[4:7] = F_N
-        return res
+            if d_full is not None:
+                power -= float(v @ (d_full * v))
+            else:
+                w = v[6:]
+                power -= float(w @ (D @ w))
+        px, py, pz, qx, qy, qz, qw = q[:7].tolist()
+        f0, f1, f2, m0, m1, m2 = u[:6].tolist()
+        F = _rotate(qx, qy, qz, qw, f0, f1, f2)
+        M = _rotate(qx, qy, qz, qw, m0, m1, m2)
+        return np.array([power, py * F[2] - pz * F[1] + M[0], pz * F[0] - px * F[2] + M[1],
+                         px * F[1] - py * F[0] + M[2], F[0], F[1], F[2]])
 
     return g
 
@@ -56,17 +65,19 @@ def drift_metrics(traj: Trajectory) -> dict[str, float]:
     """Relative drift of energy and angular momentum, net of what inputs and dampers exchanged.
 
     ``energy_drift_rel = max |E(t) - E(0) - W(t)| / E(0)``;
-    ``angular_momentum_drift_rel = max |H(t) - H(0) - int M dt| / |H(0)|``.
+    ``angular_momentum_drift_rel = max |H_O(t) - H_O(0) - int M_O dt| / |H_c(0)|`` with the angular
+    momentum about N's origin ``H_O = H_c + c x p`` (c the centre of mass, p the linear momentum).
     """
     E = traj["energy"][0]
     W = traj["work_in"][0]
-    H = traj["angular_momentum_N"]
+    Hc = traj["angular_momentum_N"]
+    H_O = Hc + np.cross(traj["com_N"], traj["momentum_N"], axis=0)
     Mi = traj["moment_impulse_N"]
     e0 = abs(E[0]) if E[0] != 0 else 1.0
-    h0 = float(np.linalg.norm(H[:, 0])) or 1.0
+    h0 = float(np.linalg.norm(Hc[:, 0])) or 1.0
     return {
         "energy_drift_rel": float(np.max(np.abs(E - E[0] - W)) / e0),
-        "angular_momentum_drift_rel": float(np.max(np.linalg.norm(H - H[:, :1] - Mi, axis=0)) / h0),
+        "angular_momentum_drift_rel": float(np.max(np.linalg.norm(H_O - H_O[:, :1] - Mi, axis=0)) / h0),
     }
 
 
@@ -135,7 +146,7 @@ def simulate_system(
 
     specs = rec.specs + [
         OutputSpec("work_in", ("value",), "J", "work done by the inputs minus energy dissipated by the dampers"),
-        OutputSpec("moment_impulse_N", ("x", "y", "z"), "N m s", "time integral of the external moment about the CoM"),
+        OutputSpec("moment_impulse_N", ("x", "y", "z"), "N m s", "time integral of the external moment about the origin of N"),
         OutputSpec("impulse_N", ("x", "y", "z"), "N s", "time integral of the external force"),
     ]
     attrs = {

@@ -62,6 +62,11 @@ class System:
                           and np.count_nonzero(self.D_e - np.diag(np.diag(self.D_e))) == 0)
         self._k_diag = np.diag(self.K_e).copy()
         self._d_diag = np.diag(self.D_e).copy()
+        # Full-length copies aligned with v (zero on the root), used with q[nq - nv:] whose tail is e.
+        self._k_full = np.concatenate([np.zeros(self.n_root_v), self._k_diag])
+        self._d_full = np.concatenate([np.zeros(self.n_root_v), self._d_diag])
+        self._tau0_full = np.concatenate([np.zeros(self.n_root_v), self._tau0])
+        self._q_off = self.nq - self.nv
         self.motor_v = np.asarray(self.layout.motor_v, dtype=int)
         self._ident = np.eye(self.nv)
         # Input matrix B (nv x n_u): chaser wrench on the root, motor torques on their joints.
@@ -71,6 +76,10 @@ class System:
         for i, iv in enumerate(self.motor_v):
             B[iv, 6 + i] = 1.0
         self.B = B
+        # u -> tau scatter: every input lands on its own velocity coordinate
+        self._u_rows = np.nonzero(B.any(axis=1))[0]
+        self._u_cols = np.array([int(np.nonzero(B[r])[0][0]) for r in self._u_rows], dtype=int)
+        assert len(set(self._u_rows)) == len(self._u_rows)
         self._target = None
         if self.layout.has_target:
             fid = self.model.getFrameId("target")
@@ -150,6 +159,22 @@ class System:
     def acceleration_u(self, q, v, u) -> np.ndarray:
         """``ddq`` for a given input vector ``u`` (n_u,) instead of the schedule."""
         return pin.aba(self.model, self.data, q, v, self.force_from_inputs(q, v, u))
+
+    def input_torque(self, u) -> np.ndarray:
+        """``B u + tau_0``: the input forces plus the springs' constant (rest-angle) term, shape (nv,).
+
+        This is what :meth:`acceleration_tau` takes; computed once per integrator stage.
+        """
+        tau = self._tau0_full.copy()
+        tau[self._u_rows] += u[self._u_cols]
+        return tau
+
+    def acceleration_tau(self, q, v, tau_u) -> np.ndarray:
+        """``ddq`` given ``tau_u = input_torque(u)`` (the integrator's inner loop)."""
+        if self._diag:
+            tau = tau_u - self._k_full * q[self._q_off :] - self._d_full * v
+            return pin.aba(self.model, self.data, q, v, tau)
+        return pin.aba(self.model, self.data, q, v, tau_u - self._tau0_full + self.spring_torque(q, v))
 
     def derivatives(self, q, v, t: float, u_extra=None):
         """See :meth:`derivatives_u`; the inputs come from the schedule at ``t`` plus ``u_extra``."""

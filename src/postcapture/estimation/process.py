@@ -1,0 +1,81 @@
+"""The ProcessModel protocol: what a filter needs from a plant model, native or FMU.
+
+The filters see a plant only through this interface, so any implementation plugs in: the native
+Pinocchio model (:class:`postcapture.dynamics.process_model.NativeProcessModel`) or an FMI
+co-simulation unit (:class:`postcapture.fmi.process_model.FMUProcessModel`).
+
+State
+-----
+``x`` is a flat float vector of length ``nx``; its tangent (error) space has dimension ``n``.
+``retract(x, dx)`` and ``local(x1, x0)`` map between them (box-plus / box-minus). The attitude error
+(3, body frame, right perturbation) sits at ``tangent_attitude`` and the body-rate error at
+``tangent_rate``.
+
+One step
+--------
+``predict(x, t, dt)`` follows the reference's loop around ``fmi2DoStep``: the corrected state goes in,
+the model advances over ``[t, t + dt]`` with the current target mass and its known inputs, and the
+predicted state comes out with the measurement predicted there,
+``z = [chaser acceleration at the accelerometer (3, body frame), arm joint accelerations (n_arm)]``.
+With ``jacobians=True`` it also returns the step Jacobian ``F = d x1 / d x`` (n x n, tangent), its
+derivative with respect to the target mass ``g = d x1 / d m`` (n,), the measurement Jacobian
+``H = d z / d x1`` (m x n) and ``h = d z / d m`` (m,) at fixed state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["Prediction", "ProcessModel"]
+
+
+@dataclass
+class Prediction:
+    """Result of :meth:`ProcessModel.predict` at time ``t + dt``."""
+
+    x: np.ndarray  # (nx,) predicted state
+    z: np.ndarray  # (m,) predicted measurement [accel_B (3), arm_ddq (n_arm)]
+    F: np.ndarray | None = None  # (n, n) step Jacobian in tangent coordinates
+    g: np.ndarray | None = None  # (n,) d x1 / d mass
+    H: np.ndarray | None = None  # (m, n) d z / d x1
+    h: np.ndarray | None = None  # (m,) d z / d mass at fixed state
+
+
+@runtime_checkable
+class ProcessModel(Protocol):
+    """A plant a filter can propagate and measure (see the module docstring)."""
+
+    name: str
+    nx: int
+    n: int
+    n_meas: int
+    tangent_attitude: slice
+    tangent_rate: slice
+
+    @property
+    def mass(self) -> float:
+        """Target mass used by the model (kg)."""
+
+    @mass.setter
+    def mass(self, value: float) -> None: ...
+
+    def initial_state(self) -> np.ndarray:
+        """The scenario's initial state ``x0`` (nx,)."""
+
+    def predict(self, x: np.ndarray, t: float, dt: float, jacobians: bool = False) -> Prediction:
+        """Advance ``x`` from ``t`` to ``t + dt`` and predict the measurement there."""
+
+    def retract(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """``x (+) dx`` (box-plus) with ``dx`` in tangent coordinates (n,)."""
+
+    def local(self, x1: np.ndarray, x0: np.ndarray) -> np.ndarray:
+        """``x1 (-) x0`` (box-minus), shape (n,)."""
+
+    def attitude(self, x: np.ndarray) -> np.ndarray:
+        """Chaser attitude ``q_BN`` (scalar first, w >= 0) of a state."""
+
+    def body_rate(self, x: np.ndarray) -> np.ndarray:
+        """Chaser body rate ``omega_BN_B`` (rad/s) of a state."""
