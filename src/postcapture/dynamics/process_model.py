@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from postcapture.core.prediction import Prediction
 from postcapture.core.rotations import skew
 from postcapture.dynamics.integrators import make_integrator
 from postcapture.dynamics.outputs import accelerometer_reading
@@ -113,8 +114,6 @@ class NativeProcessModel:
         return z, H, h
 
     def predict(self, x, t: float, dt: float, jacobians: bool = False):
-        from postcapture.estimation.process import Prediction  # noqa: PLC0415 - data class only
-
         k = int(round(dt / self.step))
         if k < 1 or abs(k * self.step - dt) > 1e-9 * max(1.0, dt):
             raise ValueError(f"dt: expected a whole multiple of the model step {self.step}, found {dt}")

@@ -24,24 +24,13 @@ derivative with respect to the target mass ``g = d x1 / d m`` (n,), the measurem
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from postcapture.core.prediction import Prediction
+
 __all__ = ["Prediction", "ProcessModel"]
-
-
-@dataclass
-class Prediction:
-    """Result of :meth:`ProcessModel.predict` at time ``t + dt``."""
-
-    x: np.ndarray  # (nx,) predicted state
-    z: np.ndarray  # (m,) predicted measurement [accel_B (3), arm_ddq (n_arm)]
-    F: np.ndarray | None = None  # (n, n) step Jacobian in tangent coordinates
-    g: np.ndarray | None = None  # (n,) d x1 / d mass
-    H: np.ndarray | None = None  # (m, n) d z / d x1
-    h: np.ndarray | None = None  # (m,) d z / d mass at fixed state
 
 
 @runtime_checkable
