@@ -20,6 +20,8 @@ __all__ = [
     "FilterDivergenceError",
     "FMIError",
     "MissingExtraError",
+    "PanelModelError",
+    "NastranError",
 ]
 
 
@@ -123,3 +125,39 @@ class MissingExtraError(PostcaptureError, ImportError):
         super().__init__(
             f"{package} is not installed; install the optional extra: pip install 'postcapture[{extra}]'"
         )
+
+
+class PanelModelError(ScenarioError):
+    """A panel model (laminate, material, ply list, geometry or mesh) failed validation.
+
+    A subclass of `ScenarioError` (and so of ``ValueError``): it carries every `Problem` found.
+
+    Parameters
+    ----------
+    problems : list of Problem
+        Every problem found, not only the first one.
+    source : str, optional
+        The file or name the description came from.
+    """
+
+    def __init__(self, problems: list[Problem], source: str | None = None):
+        super().__init__(problems, source)
+        head = f"invalid panel model {source!r}" if source else "invalid panel model"
+        n = len(self.problems)
+        lines = [f"{head}: {n} problem{'s' if n != 1 else ''}"]
+        lines += [f"  - {p}" for p in self.problems]
+        self.args = ("\n".join(lines),)
+
+
+class NastranError(PostcaptureError, ValueError):
+    """A Nastran file (BDF or OP2) cannot be used: the message names the file and what is missing.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    """
+
+    def __init__(self, message: str, path: str = ""):
+        self.path = path
+        super().__init__(f"{path}: {message}" if path else message)
