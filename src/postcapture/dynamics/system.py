@@ -34,9 +34,12 @@ class System:
         The model, layout and springs from :func:`postcapture.dynamics.assembly.assemble`.
     inputs : InputSchedule
         The known excitation ``u(t)``.
+    input_matrix : ndarray, shape (nv, n_u), optional
+        Replaces the default ``B`` (chaser wrench on the root, motor torques on their joints), e.g. to
+        apply a tip force to a panel chain through its Jacobian at rest.
     """
 
-    def __init__(self, assembly: Assembly, inputs: InputSchedule | None = None):
+    def __init__(self, assembly: Assembly, inputs: InputSchedule | None = None, input_matrix: np.ndarray | None = None):
         if inputs is None:
             inputs = InputSchedule((), assembly.layout.n_arm)
         self.assembly = assembly
@@ -75,11 +78,15 @@ class System:
             B[:6, :6] = np.eye(6)
         for i, iv in enumerate(self.motor_v):
             B[iv, 6 + i] = 1.0
+        self._custom_B = input_matrix is not None
+        if self._custom_B:
+            B = np.asarray(input_matrix, dtype=float)
+            if B.shape != (self.nv, self.n_u):
+                raise ValueError(f"input_matrix: expected shape {(self.nv, self.n_u)}, found {B.shape}")
         self.B = B
-        # u -> tau scatter: every input lands on its own velocity coordinate
+        # u -> tau scatter: every default input lands on its own velocity coordinate
         self._u_rows = np.nonzero(B.any(axis=1))[0]
         self._u_cols = np.array([int(np.nonzero(B[r])[0][0]) for r in self._u_rows], dtype=int)
-        assert len(set(self._u_rows)) == len(self._u_rows)
         self._target = None
         if self.layout.has_target:
             fid = self.model.getFrameId("target")
@@ -141,6 +148,8 @@ class System:
     def force_from_inputs(self, q, v, u) -> np.ndarray:
         """``tau = tau_springs(q, v) + B u``."""
         tau = self.spring_torque(q, v)
+        if self._custom_B:
+            return tau + self.B @ u
         if self.n_root_v:
             tau[:6] += u[:6]
         if self.motor_v.size:
@@ -165,6 +174,8 @@ class System:
 
         This is what :meth:`acceleration_tau` takes; computed once per integrator stage.
         """
+        if self._custom_B:
+            return self._tau0_full + self.B @ u
         tau = self._tau0_full.copy()
         tau[self._u_rows] += u[self._u_cols]
         return tau
