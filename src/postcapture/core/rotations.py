@@ -36,6 +36,8 @@ __all__ = [
     "box_minus",
     "rotation_angle",
     "quat_rate",
+    "right_jacobian_inv",
+    "left_jacobian_inv",
 ]
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
@@ -186,3 +188,25 @@ def quat_rate(q_BN, omega_BN_B):
     omega = np.asarray(omega_BN_B, dtype=float)
     zero = np.zeros((1,) + omega.shape[1:])
     return 0.5 * _hamilton(np.asarray(q_BN, dtype=float), np.concatenate([zero, omega], axis=0))
+
+
+def right_jacobian_inv(phi) -> np.ndarray:
+    """Inverse right Jacobian of SO(3) at the rotation vector ``phi`` (3x3).
+
+    ``log(exp(phi) exp(a)) = phi + right_jacobian_inv(phi) @ a`` to first order in ``a``; so the
+    derivative of ``box_minus(q1 (+) a, q0 (+) b)`` is ``right_jacobian_inv(phi) a - left_jacobian_inv(phi) b``
+    with ``phi = box_minus(q1, q0)``.
+    """
+    phi = np.asarray(phi, dtype=float)
+    th = float(np.linalg.norm(phi))
+    W = skew(phi)
+    if th < 1e-4:
+        c = 1.0 / 12.0 + th * th / 720.0
+    else:
+        c = 1.0 / (th * th) - (1.0 + np.cos(th)) / (2.0 * th * np.sin(th))
+    return np.eye(3) + 0.5 * W + c * (W @ W)
+
+
+def left_jacobian_inv(phi) -> np.ndarray:
+    """Inverse left Jacobian of SO(3): ``log(exp(b) exp(phi)) = phi + left_jacobian_inv(phi) @ b`` to first order."""
+    return right_jacobian_inv(-np.asarray(phi, dtype=float))

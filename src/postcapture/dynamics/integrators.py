@@ -130,7 +130,7 @@ class LieRungeKutta:
         Steps a Newton matrix is kept (simplified Newton); 1 refreshes it every step.
     """
 
-    def __init__(self, system: System, method: str | Tableau = "sdirk3", newton_tol: float = 1e-10, max_newton: int = 12, reuse_jacobian: int = 3):
+    def __init__(self, system: System, method: str | Tableau = "sdirk3", newton_tol: float = 1e-9, newton_atol: float = 1e-11, max_newton: int = 12, reuse_jacobian: int = 6):
         self.system = system
         self.tableau = TABLEAUX[method] if isinstance(method, str) else method
         self._stiffly_accurate = self.tableau.stiffly_accurate
@@ -138,6 +138,7 @@ class LieRungeKutta:
         self._c = [float(x) for x in self.tableau.c]
         self._s = self.tableau.stages
         self.newton_tol = newton_tol
+        self.newton_atol = newton_atol
         self.max_newton = max_newton
         self.n_ff = system.n_root_v  # 6 with a free-flyer root, 0 on a fixed base
         self.reuse_jacobian = reuse_jacobian
@@ -169,13 +170,15 @@ class LieRungeKutta:
     def _solve_stage(self, q, u_i, tau_i, xi_bar, V_bar, hg, xi, V, t_start):
         sysm = self.system
         model = sysm.model
-        integrate, accel, getrs, sqrt = pin.integrate, sysm.acceleration_tau, _getrs, math.sqrt
+        integrate, accel, getrs = pin.integrate, sysm.acceleration_tau, _getrs
         ff = self.n_ff
-        tol2 = self.newton_tol**2
-        inv_scale = 1.0 / (1.0 + V @ V + xi @ xi)
+        # per-component weights 1 / (atol + rtol |y_i|): a small stiff coordinate converges as tightly as a
+        # large one (a single global norm let slow stiff arm-joint rates stop early at ~1e-4 relative)
+        w_xi = 1.0 / (self.newton_atol + self.newton_tol * np.abs(xi))
+        w_V = 1.0 / (self.newton_atol + self.newton_tol * np.abs(V))
+        inv_n = 1.0 / (2 * xi.size)
         for attempt in range(2):
             lu, piv, dq, _ = self._lu
-            prev = np.inf
             for it in range(self.max_newton):
                 Kv = accel(integrate(model, q, xi), V, tau_i)
                 if ff:
@@ -188,20 +191,20 @@ class LieRungeKutta:
                 dxi = hg * dV - r_xi
                 xi = xi + dxi
                 V = V + dV
-                # scaled 2-norm of the correction (squared), relative to the stage's size
-                err = float(dV @ dV + dxi @ dxi) * inv_scale
+                # weighted RMS norm of the correction (squared)
+                a, b = dV * w_V, dxi * w_xi
+                err = float(a @ a + b @ b) * inv_n
                 if not err < math.inf:
                     break
-                # Error of the new iterate (Hairer & Wanner IV.8): rho / (1 - rho) |correction| with the
-                # observed contraction rho; on the first iteration only the correction itself.
-                rho2 = err / prev
-                est = err if it == 0 else (rho2 / (1.0 - min(sqrt(rho2), 0.9)) ** 2) * err
-                if est <= tol2 or (err <= 1e6 * tol2 and rho2 >= 0.0625):
+                # Accept once a correction (after the first) is below tolerance in every component's own
+                # scale. Extrapolating with the global contraction rate (Hairer & Wanner IV.8) saved an
+                # iteration but let slowly contracting stiff arm-joint rates stop 1e-8 off, which truth
+                # and filter copies then disagree by; this keeps them within 1e-10.
+                if it and err <= 1.0:
                     self.stats["newton_iterations"] += it + 1
                     if it + 1 > self._max_it:
                         self._max_it = it + 1
-                    return xi, V  # converged, or stalled at the round-off floor
-                prev = err
+                    return xi, V
             self.stats["newton_iterations"] += self.max_newton
             if attempt == 0:  # refresh the Newton matrix at the current stage guess and retry
                 self._newton_matrix(integrate(model, q, xi), V, u_i, hg)

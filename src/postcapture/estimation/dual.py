@@ -1,0 +1,253 @@
+"""The dual scheme: an attitude filter and the mass filter in parallel around one plant copy.
+
+Each filter step from ``t_k`` to ``t_k+1``:
+
+1. the mass filter predicts (scheduled process noise) and its estimate is routed into the plant copy;
+2. the plant copy advances with its exact step Jacobian ``F`` and mass derivative ``g``;
+   the state's sensitivity to the mass follows, ``S <- F S + g``;
+3. the attitude filter corrects the plant copy's attitude: the model-based EKF with the star tracker
+   (the copy is its process model), or the gyro-driven MEKF whose attitude and bias-corrected rate
+   then overwrite the copy's (the overwritten components no longer depend on the mass: ``S = 0``);
+4. the mass filter corrects with the measured accelerations against those the plant copy predicts
+   at the corrected state, using ``dz/dtheta`` (total or partial, see :mod:`mass_filter`);
+5. with ``shift_state`` the plant copy moves to first order onto the trajectory of the new mass,
+   ``x <- x (+) S d(theta)``: the copy then behaves as if it had run with the new mass all along.
+
+Steps 1-4 are the reference's scheme (its figure 3); 5 and the total sensitivity are ours.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from postcapture.core import rotations as rot
+from postcapture.core.errors import FilterDivergenceError
+from postcapture.estimation.attitude_ekf import AttitudeEKF, AttitudeEKFTuning
+from postcapture.estimation.history import EstimateHistory, StepFlag
+from postcapture.estimation.mass_filter import MassFilter, MassFilterTuning
+from postcapture.estimation.mekf import MEKF, MEKFTuning
+
+__all__ = ["SensorSuite", "DualConfig", "DualResult", "on_grid", "run_dual"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass
+class SensorSuite:
+    """Sensor records (anything with ``t``, ``values``, ``valid``): star tracker, gyro, accelerometer, joints."""
+
+    star: object
+    gyro: object
+    accel: object
+    joints: object
+
+
+def on_grid(record, t_grid: np.ndarray) -> np.ndarray:
+    """A record's values placed on a filter time grid, NaN where it has no valid sample, shape (m, n)."""
+    t_grid = np.asarray(t_grid, dtype=float)
+    dt = t_grid[1] - t_grid[0]
+    values = np.asarray(record.values, dtype=float)
+    out = np.full((values.shape[0], t_grid.size), np.nan)
+    idx = np.rint((np.asarray(record.t) - t_grid[0]) / dt).astype(int)
+    on = (idx >= 0) & (idx < t_grid.size) & (np.abs(t_grid[np.clip(idx, 0, t_grid.size - 1)] - record.t) < 1e-6 * dt)
+    keep = on & np.asarray(record.valid, dtype=bool)
+    out[:, idx[keep]] = values[:, keep]
+    return out
+
+
+@dataclass(frozen=True)
+class DualConfig:
+    """What runs in the dual scheme.
+
+    Parameters
+    ----------
+    attitude : {"ekf", "mekf"}
+    mass : MassFilterTuning
+    ekf : AttitudeEKFTuning, optional
+        Tuning of the model-based EKF (reference tuning by default).
+    mekf : MEKFTuning, optional
+        Tuning of the MEKF (required with ``attitude="mekf"``).
+    mekf_P0 : ndarray (6, 6), optional
+    shift_state : bool
+        Move the plant copy along ``S d(theta)`` after each mass update (step 5).
+    reset_rates : bool
+        With the MEKF, overwrite the plant copy's body rate with the bias-corrected gyro rate.
+    name : str
+    """
+
+    attitude: str
+    mass: MassFilterTuning
+    ekf: AttitudeEKFTuning = field(default_factory=AttitudeEKFTuning.reference)
+    mekf: MEKFTuning | None = None
+    mekf_P0: np.ndarray | None = None
+    shift_state: bool = True
+    reset_rates: bool = False
+    name: str = "dual"
+
+    def __post_init__(self):
+        if self.attitude not in ("ekf", "mekf"):
+            raise ValueError(f"attitude: expected 'ekf' or 'mekf', found {self.attitude!r}")
+        if self.attitude == "mekf" and self.mekf is None:
+            raise ValueError("mekf: a MEKFTuning is required with attitude='mekf'")
+
+
+@dataclass
+class DualResult:
+    """Histories of a dual run (time last) and its outcome."""
+
+    attitude: EstimateHistory
+    mass: np.ndarray  # (n,) kg
+    mass_sigma: np.ndarray  # (n,) kg
+    mass_nis: np.ndarray  # (n,)
+    wall_s: float
+    counts: dict
+
+
+def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: float, t_grid, S0=None,
+             q0_BN=None, raise_on_divergence: bool = True, progress=None) -> DualResult:
+    """Run the dual scheme over a time grid.
+
+    Parameters
+    ----------
+    model : ProcessModel
+        The filter's plant copy; its ``mass`` is driven by the mass filter.
+    sensors : SensorSuite
+        Measurements; a sample at ``t_k+1`` corrects the step ending there; gyro samples at ``t_k`` drive
+        the MEKF over ``[t_k, t_k+1]``.
+    config : DualConfig
+    x0 : ndarray (nx,)
+        Initial plant state of the filter.
+    theta0 : float
+        Initial mass estimate (kg).
+    t_grid : ndarray (n,)
+        Filter instants (uniform).
+    S0 : ndarray (n_tangent,), optional
+        Initial sensitivity of the plant state to the mass (zero by default).
+    q0_BN : ndarray (4,), optional
+        Initial attitude estimate; overrides the attitude in ``x0``.
+    raise_on_divergence : bool
+    progress : callable(fraction), optional
+    """
+    wall0 = time.perf_counter()
+    t_grid = np.asarray(t_grid, dtype=float)
+    n_t = t_grid.size
+    dt = float(t_grid[1] - t_grid[0])
+    att = model.tangent_attitude
+    rate = model.tangent_rate
+    x = np.array(x0, dtype=float)
+    if q0_BN is not None:
+        dx = np.zeros(model.n)
+        dx[att] = rot.box_minus(np.asarray(q0_BN, dtype=float), model.attitude(x))
+        x = model.retract(x, dx)
+    S = np.zeros(model.n) if S0 is None else np.array(S0, dtype=float)
+    star = on_grid(sensors.star, t_grid)
+    gyro = on_grid(sensors.gyro, t_grid)
+    z_meas = np.vstack([on_grid(sensors.accel, t_grid), on_grid(sensors.joints, t_grid)])
+
+    mass = MassFilter(config.mass, theta0, t_grid[0], t_grid[-1], name=f"{config.name}/mass",
+                      raise_on_divergence=raise_on_divergence)
+    if config.attitude == "ekf":
+        filt = AttitudeEKF(model, config.ekf, x, name=f"{config.name}/ekf", raise_on_divergence=raise_on_divergence)
+        m_err = 3
+    else:
+        P0 = config.mekf_P0 if config.mekf_P0 is not None else np.diag([1e-4] * 3 + [1e-10] * 3)
+        filt = MEKF(config.mekf, model.attitude(x), P0, t0=t_grid[0], raise_on_divergence=raise_on_divergence)
+        m_err = 6
+    q_hist = np.full((4, n_t), np.nan)
+    P_hist = np.full((m_err, m_err, n_t), np.nan)
+    nis = np.full(n_t, np.nan)
+    flags = np.zeros(n_t, dtype=np.uint8)
+    theta = np.full(n_t, np.nan)
+    sigma = np.full(n_t, np.nan)
+    mass_nis = np.full(n_t, np.nan)
+    counts = {"updates": 0, "rejected": 0, "measurements_missing": 0, "inputs_missing": 0, "mass_updates": 0}
+    q_hist[:, 0] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
+    P_hist[..., 0] = filt.P
+    theta[0], sigma[0] = mass.theta, mass.sigma
+    last_gyro = None
+    success, status, message = True, 0, "completed"
+    try:
+        for k in range(n_t - 1):
+            t, t1 = t_grid[k], t_grid[k + 1]
+            mass.predict(t)
+            model.mass = mass.theta
+            if config.attitude == "ekf":
+                p = filt.predict(t, dt)
+                S = p.F @ S + p.g
+                res = filt.update(star[:, k + 1], t1)
+                if res is not None and res.accepted:  # the copy's attitude now leans on the measurement
+                    S[att] -= filt.last_gain @ S[att]
+                x = filt.x
+            else:
+                p = model.predict(x, t, dt, jacobians=True)
+                S = p.F @ S + p.g
+                w = gyro[:, k]
+                if np.all(np.isfinite(w)):
+                    last_gyro = w
+                else:
+                    counts["inputs_missing"] += 1
+                    flags[k + 1] |= StepFlag.INPUT_MISSING
+                if last_gyro is not None:
+                    filt.predict(dt, last_gyro, t=t1)
+                res = filt.update(star[:, k + 1])
+                dx = np.zeros(model.n)
+                dx[att] = rot.box_minus(filt.q_BN, model.attitude(p.x))
+                S[att] = 0.0
+                w_next = gyro[:, k + 1]
+                if config.reset_rates and np.all(np.isfinite(w_next)):
+                    dx[rate] = (w_next - filt.bias_B) - model.body_rate(p.x)
+                    S[rate] = 0.0
+                x = model.retract(p.x, dx)
+            if res is None:
+                counts["measurements_missing"] += 1
+                flags[k + 1] |= StepFlag.MEASUREMENT_MISSING
+            elif not res.accepted:
+                counts["rejected"] += 1
+                flags[k + 1] |= StepFlag.REJECTED
+            else:
+                counts["updates"] += 1
+                flags[k + 1] |= StepFlag.UPDATED
+                nis[k + 1] = res.nis
+            # measurement predicted at the corrected state, to first order from the prediction
+            z_hat = p.z + p.H @ model.local(x, p.x)
+            dz = p.H @ S + p.h if config.mass.sensitivity == "total" else p.h
+            theta_before = mass.theta
+            mres = mass.update(z_meas[:, k + 1] - z_hat, dz, t1)
+            if mres is not None:
+                counts["mass_updates"] += 1
+                mass_nis[k + 1] = mres.nis
+                if config.shift_state and config.mass.sensitivity == "total":
+                    x = model.retract(x, S * (mass.theta - theta_before))
+                    if config.attitude == "ekf":
+                        filt.x = x
+            q_hist[:, k + 1] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
+            P_hist[..., k + 1] = filt.P
+            theta[k + 1], sigma[k + 1] = mass.theta, mass.sigma
+            if progress is not None and k % 50 == 0:
+                progress((k + 1) / (n_t - 1))
+            if getattr(filt, "diverged", False) or getattr(filt, "status", "running") == "failed" or mass.diverged:
+                raise FilterDivergenceError(config.name, t1, filt.message or mass.message)
+    except FilterDivergenceError as exc:
+        if raise_on_divergence:
+            raise
+        success, status, message = False, -1, str(exc)
+        flags[k + 1 :] |= StepFlag.DIVERGED
+    history = EstimateHistory(
+        filter_name=config.name,
+        t=t_grid,
+        q_BN=q_hist,
+        P=P_hist,
+        nis=nis,
+        flags=flags,
+        error_labels=("dtheta_x", "dtheta_y", "dtheta_z") + (("dbias_x", "dbias_y", "dbias_z") if m_err == 6 else ()),
+        states={"mass": theta[None, :], "mass_sigma": sigma[None, :]},
+        counts=counts,
+        success=success,
+        status=status,
+        message=message,
+    )
+    return DualResult(history, theta, sigma, mass_nis, time.perf_counter() - wall0, counts)

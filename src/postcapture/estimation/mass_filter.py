@@ -1,0 +1,153 @@
+"""The sigmoid-constrained EKF on the target mass (the reference's parameter filter).
+
+The filter estimates ``x`` with ``theta = b + (a - b) / (1 + exp(-c x))`` (reference eq. 4), so the mass
+stays in ``(b, a)``. Its process noise on ``x`` is scheduled linearly from ``q_start`` to ``q_end`` over
+the run (the reference: 20.1 to 0.1, large first for fast convergence, small at the end to stop
+oscillation). Its measurement is ``z = [chaser acceleration (3), arm joint accelerations (n_arm)]``,
+predicted by the plant model at the attitude filter's state, with covariance ``R`` (the reference:
+``diag(1e-4 I3, 1e-2 I7)``).
+
+The measurement Jacobian ``dz/dtheta`` is analytic. ``sensitivity="partial"`` is the reference's: the
+derivative at a fixed plant state. ``sensitivity="total"`` adds the plant state's own dependence on
+the mass: ``dz/dtheta = H S + h`` with ``S = dx/dtheta`` carried through the model's exact step Jacobians
+(``S <- F S + g``), the recurrent derivative of Wan and Nelson's dual EKF. The caller (the dual scheme)
+owns ``S``.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from postcapture.core import kalman
+from postcapture.core.errors import CovarianceError, FilterDivergenceError
+from postcapture.core.sigmoid import SigmoidMap
+
+__all__ = ["MassFilterTuning", "MassFilter"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MassFilterTuning:
+    """Tuning of the mass filter.
+
+    Parameters
+    ----------
+    R_diag : array_like, shape (m,)
+        Measurement variances: accelerometer (m/s^2)^2 then joint accelerations (rad/s^2)^2.
+    q_start, q_end : float
+        Process-noise variance on ``x`` per filter step at the start and the end of the run.
+    P0 : float
+        Initial variance of ``x``.
+    sigmoid : SigmoidMap
+        The constraint map (defaults a = 9000 kg, b = 5000 kg, c = 0.001).
+    sensitivity : {"total", "partial"}
+        See the module docstring.
+    gate_probability : float or None
+        Chi-square gate on the measurement's NIS (None: no gate).
+    """
+
+    R_diag: np.ndarray
+    q_start: float = 20.1
+    q_end: float = 0.1
+    P0: float = 100.0**2
+    sigmoid: SigmoidMap = field(default_factory=SigmoidMap)
+    sensitivity: str = "total"
+    gate_probability: float | None = None
+
+    def __post_init__(self):
+        if self.sensitivity not in ("total", "partial"):
+            raise ValueError(f"sensitivity: expected 'total' or 'partial', found {self.sensitivity!r}")
+        R = np.asarray(self.R_diag, dtype=float)
+        if R.ndim != 1 or np.any(~np.isfinite(R)) or np.any(R <= 0):
+            raise ValueError(f"R_diag: expected positive finite variances, found {R}")
+        object.__setattr__(self, "R_diag", R)
+
+    @classmethod
+    def reference(cls, n_arm: int = 7, **overrides) -> "MassFilterTuning":
+        """The reference's tuning: R = diag(1e-4 I3, 1e-2 I7), q from 20.1 to 0.1."""
+        R = np.concatenate([np.full(3, 1e-4), np.full(n_arm, 1e-2)])
+        return cls(R_diag=R, **overrides)
+
+
+class MassFilter:
+    """Scalar EKF on the sigmoid pre-image of the target mass.
+
+    Parameters
+    ----------
+    tuning : MassFilterTuning
+    theta0 : float
+        Initial mass estimate (kg), inside ``(b, a)``.
+    t0, t_end : float
+        Start and end of the run (s), for the process-noise schedule.
+    name : str
+    raise_on_divergence : bool
+    """
+
+    def __init__(self, tuning: MassFilterTuning, theta0: float, t0: float, t_end: float, name: str = "mass",
+                 raise_on_divergence: bool = True):
+        self.tuning = tuning
+        self.map = tuning.sigmoid
+        self.x = float(self.map.inverse(theta0))
+        self.P = float(tuning.P0)
+        self.t0, self.t_end = float(t0), float(t_end)
+        self.name = name
+        self.raise_on_divergence = raise_on_divergence
+        self.diverged = False
+        self.message = ""
+
+    @property
+    def theta(self) -> float:
+        """Mass estimate (kg)."""
+        return float(self.map.forward(self.x))
+
+    @property
+    def sigma(self) -> float:
+        """One-sigma of the mass estimate (kg), through the map's slope."""
+        return float(abs(self.map.derivative(self.x)) * np.sqrt(self.P))
+
+    def process_noise(self, t: float) -> float:
+        """Scheduled variance added per step at time ``t``."""
+        span = max(self.t_end - self.t0, 1e-12)
+        a = min(max((t - self.t0) / span, 0.0), 1.0)
+        return self.tuning.q_start + a * (self.tuning.q_end - self.tuning.q_start)
+
+    def predict(self, t: float) -> None:
+        """Random-walk prediction: ``P <- P + q(t)``."""
+        self.P += self.process_noise(t)
+
+    def update(self, innovation, dz_dtheta, t: float):
+        """Correct with the measurement innovation ``z - z_hat`` and ``dz/dtheta`` (both (m,), NaN = missing).
+
+        Returns the update result (with ``nis``), or None when no component was valid.
+        """
+        nu = np.asarray(innovation, dtype=float)
+        ok = np.isfinite(nu) & np.isfinite(dz_dtheta)
+        if not ok.any():
+            return None
+        H = (np.asarray(dz_dtheta, dtype=float)[ok] * self.map.derivative(self.x))[:, None]
+        try:
+            res = kalman.update(np.array([self.x]), np.array([[self.P]]), nu[ok], H, np.diag(self.tuning.R_diag[ok]),
+                                gate_probability=self.tuning.gate_probability)
+        except CovarianceError as exc:
+            self._fail(t, str(exc))
+            return None
+        if res.accepted:
+            x_new = float(res.x[0])
+            # Keep the pre-image where the sigmoid is not flat in floating point (|c x| < 30).
+            limit = 30.0 / self.map.c
+            self.x = min(max(x_new, -limit), limit)
+            self.P = float(res.P[0, 0])
+        if not (np.isfinite(self.x) and np.isfinite(self.P) and self.P > 0):
+            self._fail(t, "non-finite or non-positive mass variance")
+        return res
+
+    def _fail(self, t: float, cause: str) -> None:
+        self.diverged = True
+        self.message = f"diverged at t = {t:.6g} s: {cause}"
+        if self.raise_on_divergence:
+            raise FilterDivergenceError(self.name, t, cause)
+        logger.warning("%s %s", self.name, self.message)
