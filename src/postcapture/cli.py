@@ -17,6 +17,7 @@ EXAMPLES = """examples:
   postcapture simulate --duration 60 --json
   postcapture simulate --scenario my_scenario.toml --variant stiff --out run.nc
   postcapture modes --count 12
+  postcapture panel calibrate --panel envisat --weights 1,10,0.1 --out results/panel
   postcapture bench --json
 """
 
@@ -170,6 +171,37 @@ def _cmd_accuracy(args) -> int:
     return 0
 
 
+def _weights(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated positive numbers, found {text!r}") from None
+    if not values or any(not v > 0 or v == float("inf") for v in values):
+        raise argparse.ArgumentTypeError(f"expected comma-separated positive numbers, found {text!r}")
+    return values
+
+
+def _cmd_panel_calibrate(args) -> int:
+    from postcapture.panels import calibrate
+    from postcapture.report.panels import calibration_figures
+
+    def progress(done, total, message):
+        if not args.json:
+            print(f"  [{done}/{total}] {message}", file=sys.stderr)
+
+    result = calibrate(args.panel, segments=args.segments, weights=args.weights, reference=args.reference,
+                       progress=progress)
+    if args.out:
+        result.write(args.out, figures=calibration_figures)
+    if args.json:
+        print(result.to_json())
+    else:
+        print(result.tables())
+        if args.out:
+            print(f"tables, JSON, TOML fragment and figures written to {args.out}")
+    return 0
+
+
 # ---------------------------------------------------------------------------------------- parser
 def _positive_float(text: str) -> float:
     try:
@@ -234,6 +266,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--count", type=_positive_int, default=20, help="number of modes to list (default 20)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_modes)
+
+    p = sub.add_parser("panel", help="panel models: calibrate the lumped chain against a plate FEM")
+    panel_sub = p.add_subparsers(dest="panel_command", required=True, parser_class=_Parser)
+    c = panel_sub.add_parser("calibrate", help="fit the lumped panel stiffnesses to the FEM and validate by a sine sweep")
+    c.add_argument("--panel", default="envisat", help="envisat, chaser, or a TOML file with geometry and laminate")
+    c.add_argument("--segments", type=_positive_int, default=5, metavar="N", help="rigid segments (default 5)")
+    c.add_argument("--weights", type=_weights, default=(1.0, 10.0, 0.1), metavar="W1,W2,...",
+                   help="mode-shape weights of the fit, one run each (default 1,10,0.1)")
+    c.add_argument("--reference", default="fem", metavar="fem|OP2FILE",
+                   help="the built-in plate FEM, or modes read from a Nastran OP2 file")
+    c.add_argument("--out", default=None, metavar="DIR", help="write tables, JSON, a TOML fragment and figures here")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(func=_cmd_panel_calibrate)
 
     p = sub.add_parser("bench", help="speed benchmark (real-time factors, step Jacobian, build time)")
     p.add_argument("--scenario", default="envisat")

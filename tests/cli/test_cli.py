@@ -119,3 +119,25 @@ def test_installed_script_smoke(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["n_dof"] == 25
+
+
+def test_panel_calibrate_json_shape(capsys, tmp_path):
+    code, out, err = run(capsys, "panel", "calibrate", "--panel", "chaser", "--weights", "0.1", "--json",
+                         "--out", str(tmp_path / "cal"))
+    assert code == 0, err
+    result = json.loads(out)
+    assert len(result["fem_hz"]) == 3
+    run01 = result["runs"]["w=0.1"]
+    for key in ("k", "k_torsion", "peak_hz", "fem_peak_hz", "mac"):
+        assert key in run01
+    assert len(run01["k"]) == 5 and min(run01["mac"]) > 0.99
+    assert abs(run01["peak_hz"] / run01["fem_peak_hz"] - 1) < 0.01
+    assert (tmp_path / "cal" / "calibration.json").exists() and (tmp_path / "cal" / "sweep_spectra.png").exists()
+
+
+def test_panel_calibrate_bad_inputs_exit_1(capsys, tmp_path):
+    code, _, err = run(capsys, "panel", "calibrate", "--panel", str(tmp_path / "missing.toml"))
+    assert code == 1 and "expected envisat, chaser or an existing TOML file" in err and "Traceback" not in err
+    with pytest.raises(SystemExit) as exc:
+        main(["panel", "calibrate", "--weights", "1,-2"])
+    assert exc.value.code == 1
