@@ -22,7 +22,7 @@ $(VENV)/.test-stamp: pyproject.toml | $(VENV)/bin/python
 	@touch $@ $(VENV)/.run-stamp
 
 run: $(VENV)/.run-stamp
-	$(VENV)/bin/postcapture simulate --out $(OUT)/truth.nc
+	$(VENV)/bin/postcapture run --out $(OUT)
 
 test: $(VENV)/.test-stamp
 	$(PY) -m pytest -q

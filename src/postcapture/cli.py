@@ -14,6 +14,8 @@ import sys
 __all__ = ["main"]
 
 EXAMPLES = """examples:
+  postcapture run --out results                      # the main job on the embedded Envisat scenario
+  postcapture run --profile realistic --json
   postcapture simulate --duration 60 --json
   postcapture simulate --scenario my_scenario.toml --variant stiff --out run.nc
   postcapture modes --count 12
@@ -92,6 +94,46 @@ def _cmd_simulate(args) -> int:
               f"angular momentum balance drift {summary['angular_momentum_drift_rel']:.2e}")
         print(f"trajectory written to {out}")
     return 0
+
+
+def _cmd_run(args) -> int:
+    from postcapture.campaign.main_job import run_main_job
+    from postcapture.campaign.results import write_results
+    from postcapture.config import load_scenario
+    from postcapture.report.estimation import results_table
+
+    scenario = load_scenario(args.scenario)
+    bar, update = _progress_bar("run")
+    with bar:
+        result = run_main_job(
+            scenario,
+            profile=args.profile,
+            duration=args.duration,
+            cases=args.cases,
+            initial_mass_error=args.initial_mass_error,
+            seed=args.seed,
+            workers=args.workers,
+            crlb=not args.no_crlb,
+            progress=lambda msg, frac: (bar.set_description(f"run: {msg}"), update(frac)),
+        )
+    paths = write_results(result, args.out, figures=not args.no_plots)
+    summary = result.summary()
+    if args.json:
+        _print_json(summary)
+    else:
+        print(results_table(summary))
+        print(f"results written to {args.out}/ ({', '.join(sorted(p.name for p in paths.values()))})")
+    return 0
+
+
+def _cases(text: str) -> tuple[str, ...]:
+    from postcapture.campaign.cases import CASES
+
+    names = tuple(x.strip() for x in text.split(",") if x.strip())
+    bad = [n for n in names if n not in CASES]
+    if not names or bad:
+        raise argparse.ArgumentTypeError(f"expected case names among {', '.join(CASES)}, found {text!r}")
+    return names
 
 
 def _cmd_modes(args) -> int:
@@ -249,6 +291,23 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--variant", default="flexible", choices=["flexible", "stiff", "rigid"])
         p.add_argument("--panel-segments", type=_positive_int, default=None, metavar="N",
                        help="cut every panel into N segments (stiffnesses derived from EI(s))")
+
+    p = sub.add_parser("run", help="the main job: truth, sensors, EKF/MEKF dual schemes and the joint EKF")
+    p.add_argument("--scenario", default="envisat", help="built-in name or TOML path (default: envisat)")
+    p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="seconds (default: scenario)")
+    p.add_argument("--profile", choices=["reference", "realistic"], default="reference",
+                   help="sensor profile and tuning (default: reference)")
+    p.add_argument("--cases", type=_cases, default=("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff",
+                                                     "joint_flexible"), metavar="A,B,...", help="cases to run")
+    p.add_argument("--initial-mass-error", type=float, default=None, metavar="KG",
+                   help="added to the true mass to start the filters (default: scenario, -100 kg)")
+    p.add_argument("--seed", type=int, default=None, help="sensor-noise seed (default: scenario)")
+    p.add_argument("--workers", type=_positive_int, default=2, help="processes for the cases (default 2)")
+    p.add_argument("--no-crlb", action="store_true", help="skip the Cramer-Rao bound")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--out", default="results", metavar="DIR", help="results folder (default: results)")
+    p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
+    p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("simulate", help="truth simulation to a NetCDF file")
     scenario_args(p)

@@ -12,6 +12,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
+from postcapture.config.estimation import Estimation
 from postcapture.config.excitation import Excitation, channel_index
 from postcapture.config.flexibility import refine_stiffness
 from postcapture.config.types import (
@@ -186,12 +187,16 @@ class Scenario(Frozen):
     excitation: tuple[Excitation, ...] = ()
     initial: InitialState = InitialState()
     simulation: Simulation = Simulation()
+    estimation: Estimation = Estimation()
 
     @model_validator(mode="after")
     def _consistency(self):
         if self.target is not None and self.arm is None:
             raise problem("an arm to hold the target", "a target without an arm")
         n_arm = len(self.arm.joints) if self.arm is not None else 0
+        unknown = sorted(set(self.estimation.sensors) - {"reference", "realistic"})
+        if unknown:
+            raise problem("sensor profiles among reference, realistic", unknown)
         for i, ex in enumerate(self.excitation):
             try:
                 channel_index(ex.channel, n_arm)

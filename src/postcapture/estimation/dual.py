@@ -235,7 +235,7 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
         if raise_on_divergence:
             raise
         success, status, message = False, -1, str(exc)
-        flags[k + 1 :] |= StepFlag.DIVERGED
+        flags[k + 1 :] |= np.uint8(int(StepFlag.DIVERGED))
     history = EstimateHistory(
         filter_name=config.name,
         t=t_grid,

@@ -111,6 +111,12 @@ class EstimateHistory:
         object.__setattr__(self, "states", MappingProxyType(dict(self.states)))
         object.__setattr__(self, "counts", MappingProxyType(dict(self.counts)))
 
+    def __reduce__(self):
+        """Pickle with plain dicts (a mappingproxy does not pickle): results cross process boundaries."""
+        fields = [getattr(self, f) for f in self.__dataclass_fields__]
+        fields = [dict(v) if isinstance(v, MappingProxyType) else v for v in fields]
+        return (self.__class__, tuple(fields))
+
     @property
     def sigmas(self) -> np.ndarray:
         """Standard deviations ``sqrt(diag P)``, shape (m, n)."""

@@ -239,7 +239,7 @@ def run_joint(model, sensors: SensorSuite, tuning: JointTuning, *, x0, theta0: f
                 raise
             raise FilterDivergenceError(name, t_grid[min(k + 1, n_t - 1)], str(exc)) from exc
         success, status, message = False, -1, str(exc)
-        flags[k + 1 :] |= StepFlag.DIVERGED
+        flags[k + 1 :] |= np.uint8(int(StepFlag.DIVERGED))
     history = EstimateHistory(
         filter_name=name, t=t_grid, q_BN=q_hist, P=P_hist, nis=nis, flags=flags,
         error_labels=("dtheta_x", "dtheta_y", "dtheta_z", "dbias_x", "dbias_y", "dbias_z"),

@@ -78,6 +78,10 @@ class Measurements:
         object.__setattr__(self, "rate", float(self.rate))
         object.__setattr__(self, "truth", MappingProxyType(truth))
 
+    def __reduce__(self):
+        """Pickle with a plain dict (a mappingproxy does not pickle): records go to worker processes."""
+        return (self.__class__, (self.name, self.t, self.values, self.valid, self.units, self.rate, dict(self.truth)))
+
     @property
     def n_samples(self) -> int:
         """Number of samples ``n``."""

@@ -1,0 +1,114 @@
+"""The main job's estimation cases and their tunings, per sensor profile.
+
+Cases: the reference's four dual schemes {EKF, MEKF} x {flexible, stiff (k = 1e7) filter model}, and
+the joint EKF on the flexible model. Tunings:
+
+- ``reference`` profile: the reference's attitude EKF (R = 0.01^2 I3, Q = 0.0007^2 I3, P0 = 0.02^2 I3),
+  its mass filter (R_theta = diag(1e-4 I3, 1e-2 I7), q from 20.1 to 0.1, sigmoid c = 0.001, a = 9000,
+  b = 5000), a MEKF with the gyro's own noise and the same star-tracker R;
+- ``realistic`` profile: every filter's noise matched to the simulated sensors, the mass filter's
+  process noise scheduled from 20.1 down to 1e-4 (a constant parameter).
+
+The dual mass filters use the total sensitivity and the state shift by default (see
+:mod:`postcapture.estimation.dual`); ``mass_sensitivity="partial"`` gives the reference's own filter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from postcapture.core.units import DEG_PER_HOUR
+from postcapture.estimation.attitude_ekf import AttitudeEKFTuning
+from postcapture.estimation.dual import DualConfig
+from postcapture.estimation.joint import JointTuning
+from postcapture.estimation.mass_filter import MassFilterTuning
+from postcapture.estimation.mekf import MEKFTuning
+from postcapture.sensors.profiles import SensorProfile
+
+__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "attitude_P0", "dual_config", "joint_tuning", "gyro_sample_sigma"]
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """One estimation case: scheme, attitude filter, filter-model variant, mass sensitivity."""
+
+    name: str
+    scheme: str  # "dual" or "joint"
+    attitude: str  # "ekf", "mekf" (dual) or "joint"
+    variant: str  # filter model: "flexible", "stiff", "rigid"
+    mass_sensitivity: str = "total"
+    shift_state: bool = True
+
+
+CASES = {
+    "ekf_flexible": CaseSpec("ekf_flexible", "dual", "ekf", "flexible"),
+    "ekf_stiff": CaseSpec("ekf_stiff", "dual", "ekf", "stiff"),
+    "mekf_flexible": CaseSpec("mekf_flexible", "dual", "mekf", "flexible"),
+    "mekf_stiff": CaseSpec("mekf_stiff", "dual", "mekf", "stiff"),
+    "joint_flexible": CaseSpec("joint_flexible", "joint", "joint", "flexible"),
+    # the reference's own mass filter: derivative at fixed state, no state shift
+    "ekf_flexible_partial": CaseSpec("ekf_flexible_partial", "dual", "ekf", "flexible", "partial", False),
+    "mekf_flexible_partial": CaseSpec("mekf_flexible_partial", "dual", "mekf", "flexible", "partial", False),
+}
+DEFAULT_CASES = ("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff", "joint_flexible")
+
+
+def gyro_sample_sigma(profile: SensorProfile) -> float:
+    """White one-sigma of one gyro sample (rad/s): ``sqrt(sigma_v^2 / dt + sigma_u^2 dt / 12)``."""
+    g = profile.gyro
+    dt = 1.0 / g.rate
+    return float(np.sqrt(g.sigma_v**2 / dt + g.sigma_u**2 * dt / 12.0))
+
+
+def attitude_P0(profile: SensorProfile, profile_name: str) -> np.ndarray:
+    """Initial attitude covariance of every filter (the initial attitude errors are drawn from it)."""
+    if profile_name == "reference":
+        return 0.02**2 * np.eye(3)
+    return 4.0 * profile.star_tracker.covariance()
+
+
+def _star_R(profile: SensorProfile, profile_name: str) -> np.ndarray:
+    return 0.01**2 * np.eye(3) if profile_name == "reference" else profile.star_tracker.covariance()
+
+
+def dual_config(spec: CaseSpec, profile: SensorProfile, profile_name: str, n_arm: int) -> DualConfig:
+    """The dual scheme of a case under a sensor profile."""
+    R_star = _star_R(profile, profile_name)
+    if profile_name == "reference":
+        mass = MassFilterTuning.reference(n_arm, sensitivity=spec.mass_sensitivity)
+        ekf = AttitudeEKFTuning.reference()
+    else:
+        R_z = np.concatenate([np.full(3, profile.accelerometer.sigma**2), np.full(n_arm, profile.joints.sigma**2)])
+        mass = MassFilterTuning(R_diag=R_z, q_start=20.1, q_end=1e-4, sensitivity=spec.mass_sensitivity)
+        # the plant copy's rates are not corrected: errors of ~2e-5 rad/s drift its attitude by ~2e-6 rad
+        # per 0.1 s step (Q scanned: 1e-6 gives NEES 5.5, 3e-6 gives 2.3 over one run)
+        ekf = AttitudeEKFTuning(R=R_star, Q=(2e-6) ** 2 * np.eye(3), P0=attitude_P0(profile, profile_name))
+    mekf = MEKFTuning(sigma_v=profile.gyro.sigma_v, sigma_u=profile.gyro.sigma_u, star_covariance=R_star,
+                      name=f"{spec.name}/mekf")
+    mekf_P0 = np.zeros((6, 6))
+    mekf_P0[:3, :3] = attitude_P0(profile, profile_name)
+    mekf_P0[3:, 3:] = (0.2 * DEG_PER_HOUR) ** 2 * np.eye(3)
+    return DualConfig(spec.attitude, mass, ekf=ekf, mekf=mekf, mekf_P0=mekf_P0, shift_state=spec.shift_state,
+                      name=spec.name)
+
+
+def joint_tuning(profile: SensorProfile, profile_name: str, n_arm: int) -> JointTuning:
+    """The joint EKF's noise model: matched to the sensors (it is ours, not the reference's)."""
+    acc = profile.accelerometer
+    R_z = np.concatenate([np.full(3, acc.sigma**2), np.full(n_arm, profile.joints.sigma**2)])
+    return JointTuning(
+        R_star=profile.star_tracker.covariance(),
+        sigma_gyro=gyro_sample_sigma(profile),
+        sigma_u=profile.gyro.sigma_u,
+        R_accel=R_z,
+        sigma_accel_bias_walk=acc.sigma_bias_walk,
+        P0_accel_bias=max(float(np.max(np.abs(acc.bias_B))) * 2.0, 5e-5) ** 2,
+        q_model=1e-16,
+        P0_state=1e-16,
+        q_mass_start=1e-6,
+        q_mass_end=1e-6,
+        P0_attitude=attitude_P0(profile, profile_name),
+        P0_bias=(0.2 * DEG_PER_HOUR) ** 2,
+    )

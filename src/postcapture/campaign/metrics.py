@@ -1,0 +1,65 @@
+"""Figures of merit of one estimation case against the truth."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from postcapture.core import rotations as rot
+from postcapture.core.consistency import chi2_bounds
+
+__all__ = ["ARCSEC", "settle_time", "case_metrics"]
+
+ARCSEC = np.pi / (180.0 * 3600.0)
+
+
+def settle_time(t: np.ndarray, error: np.ndarray, threshold: float) -> float | None:
+    """First time after which ``|error| <= threshold`` holds to the end (None if it never settles)."""
+    bad = np.nonzero(~(np.abs(error) <= threshold))[0]
+    if bad.size == 0:
+        return float(t[0])
+    if bad[-1] == t.size - 1:
+        return None
+    return float(t[bad[-1] + 1])
+
+
+def case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float = 0.5) -> dict:
+    """Metrics of a case (a :class:`~postcapture.estimation.dual.DualResult`).
+
+    Attitude figures use the body-frame error ``box_minus(q_true, q_est)`` against the filter's own
+    attitude covariance; "steady" figures use the run after ``steady_from`` of its duration.
+    """
+    hist = result.attitude
+    t = hist.t
+    ok = np.all(np.isfinite(hist.q_BN), axis=0)
+    e = np.full((3, t.size), np.nan)
+    e[:, ok] = rot.box_minus(q_true[:, ok], hist.q_BN[:, ok])
+    P = hist.P[:3, :3, :]
+    sig = np.sqrt(np.einsum("iik->ik", P))
+    inside = np.all(np.abs(e) <= 3.0 * sig, axis=0)
+    with np.errstate(invalid="ignore"):
+        nees = np.array([e[:, k] @ np.linalg.solve(P[:, :, k], e[:, k]) if ok[k] else np.nan for k in range(t.size)])
+    steady = t >= t[0] + steady_from * (t[-1] - t[0])
+    ang = np.linalg.norm(e, axis=0)
+    mass_err = result.mass - m_true
+    nees_m = (mass_err / result.mass_sigma) ** 2
+    lo3, hi3 = chi2_bounds(3, 1)
+    return {
+        "mass_error_kg": float(mass_err[-1]),
+        "mass_sigma_kg": float(result.mass_sigma[-1]),
+        "mass_nees_mean": float(np.nanmean(nees_m[1:])),
+        "settle_1pct_s": settle_time(t, mass_err, 0.01 * m_true),
+        "settle_01pct_s": settle_time(t, mass_err, 0.001 * m_true),
+        "attitude_rms_arcsec": float(np.sqrt(np.nanmean(ang**2)) / ARCSEC),
+        "attitude_rms_steady_arcsec": float(np.sqrt(np.nanmean(ang[steady] ** 2)) / ARCSEC),
+        "attitude_sigma_steady_arcsec": (np.sqrt(np.nanmean(e[:, steady] ** 2, axis=1)) / ARCSEC).tolist(),
+        "inside_3sigma": float(np.mean(inside[ok])),
+        "nees_mean": float(np.nanmean(nees)),
+        "nees_band_single_run": [float(lo3), float(hi3)],
+        "nis_mean": float(np.nanmean(hist.nis)) if np.isfinite(hist.nis).any() else None,
+        "mass_nis_mean": float(np.nanmean(result.mass_nis)) if np.isfinite(result.mass_nis).any() else None,
+        "star_updates": int(result.counts.get("updates", 0)),
+        "rejected": int(result.counts.get("rejected", 0)),
+        "success": bool(hist.success),
+        "message": hist.message,
+        "wall_s": float(result.wall_s),
+    }
