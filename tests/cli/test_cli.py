@@ -141,3 +141,25 @@ def test_panel_calibrate_bad_inputs_exit_1(capsys, tmp_path):
     with pytest.raises(SystemExit) as exc:
         main(["panel", "calibrate", "--weights", "1,-2"])
     assert exc.value.code == 1
+
+
+def test_run_json_and_files(capsys, tmp_path):
+    out = tmp_path / "res"
+    code, stdout, err = run(capsys, "run", "--duration", "15", "--cases", "ekf_flexible,joint_flexible", "--no-crlb",
+                            "--workers", "1", "--out", str(out), "--json")
+    assert code == 0, err
+    summary = json.loads(stdout)
+    for name in ("ekf_flexible", "joint_flexible"):
+        case = summary["cases"][name]
+        for key in ("mass_error_kg", "mass_sigma_kg", "attitude_rms_arcsec", "inside_3sigma", "nees_mean", "wall_s"):
+            assert key in case
+    assert summary["wall_s"] > 0
+    for f in ("results.nc", "summary.json", "table.txt", "fig4a_quaternion.png", "fig5_mass.png"):
+        assert (out / f).exists()
+
+
+def test_run_bad_case_name_exits_1(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "--cases", "ekf_flexible,kalman_magic"])
+    assert exc.value.code == 1
+    assert "expected case names among" in capsys.readouterr().err

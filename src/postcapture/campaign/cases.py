@@ -7,7 +7,8 @@ the joint EKF on the flexible model. Tunings:
   its mass filter (R_theta = diag(1e-4 I3, 1e-2 I7), q from 20.1 to 0.1, sigmoid c = 0.001, a = 9000,
   b = 5000), a MEKF with the gyro's own noise and the same star-tracker R;
 - ``realistic`` profile: every filter's noise matched to the simulated sensors, the mass filter's
-  process noise scheduled from 20.1 down to 1e-4 (a constant parameter).
+  process noise scheduled from 20.1 down to 1e-4 (a constant parameter), and the accelerometer bias
+  estimated alongside the mass.
 
 The dual mass filters use the total sensitivity and the state shift by default (see
 :mod:`postcapture.estimation.dual`); ``mass_sensitivity="partial"`` gives the reference's own filter.
@@ -80,8 +81,11 @@ def dual_config(spec: CaseSpec, profile: SensorProfile, profile_name: str, n_arm
         mass = MassFilterTuning.reference(n_arm, sensitivity=spec.mass_sensitivity)
         ekf = AttitudeEKFTuning.reference()
     else:
-        R_z = np.concatenate([np.full(3, profile.accelerometer.sigma**2), np.full(n_arm, profile.joints.sigma**2)])
-        mass = MassFilterTuning(R_diag=R_z, q_start=20.1, q_end=1e-4, sensitivity=spec.mass_sensitivity)
+        acc = profile.accelerometer
+        R_z = np.concatenate([np.full(3, acc.sigma**2), np.full(n_arm, profile.joints.sigma**2)])
+        mass = MassFilterTuning(R_diag=R_z, q_start=20.1, q_end=1e-4, sensitivity=spec.mass_sensitivity,
+                                accel_bias=True, P0_accel_bias=max(2.0 * float(np.max(np.abs(acc.bias_B))), 5e-5) ** 2,
+                                q_accel_bias=acc.sigma_bias_walk**2 / acc.rate)
         # the plant copy's rates are not corrected: errors of ~2e-5 rad/s drift its attitude by ~2e-6 rad
         # per 0.1 s step (Q scanned: 1e-6 gives NEES 5.5, 3e-6 gives 2.3 over one run)
         ekf = AttitudeEKFTuning(R=R_star, Q=(2e-6) ** 2 * np.eye(3), P0=attitude_P0(profile, profile_name))

@@ -2,14 +2,24 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from postcapture.core import rotations as rot
 from postcapture.core.consistency import chi2_bounds
 
-__all__ = ["ARCSEC", "settle_time", "case_metrics"]
+__all__ = ["ARCSEC", "settle_time", "case_metrics", "finite_or_none"]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
+
+
+def finite_or_none(value):
+    """A float, or None when it is not finite (JSON has no NaN)."""
+    if value is None:
+        return None
+    value = float(value)
+    return value if np.isfinite(value) else None
 
 
 def settle_time(t: np.ndarray, error: np.ndarray, threshold: float) -> float | None:
@@ -23,6 +33,13 @@ def settle_time(t: np.ndarray, error: np.ndarray, threshold: float) -> float | N
 
 
 def case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float = 0.5) -> dict:
+    """Metrics of a case; see :func:`_case_metrics`. A diverged filter's NaN tail gives None, not warnings."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # means of all-NaN windows of a diverged filter
+        return _case_metrics(result, q_true, m_true, steady_from)
+
+
+def _case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float = 0.5) -> dict:
     """Metrics of a case (a :class:`~postcapture.estimation.dual.DualResult`).
 
     Attitude figures use the body-frame error ``box_minus(q_true, q_est)`` against the filter's own
@@ -43,15 +60,18 @@ def case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float =
     mass_err = result.mass - m_true
     nees_m = (mass_err / result.mass_sigma) ** 2
     lo3, hi3 = chi2_bounds(3, 1)
-    return {
-        "mass_error_kg": float(mass_err[-1]),
-        "mass_sigma_kg": float(result.mass_sigma[-1]),
+    last = np.nonzero(np.isfinite(result.mass))[0]
+    last = last[-1] if last.size else -1
+    out = {
+        "mass_error_kg": float(mass_err[last]),
+        "mass_sigma_kg": float(result.mass_sigma[last]),
+        "mass_error_at_s": float(t[last]),
         "mass_nees_mean": float(np.nanmean(nees_m[1:])),
         "settle_1pct_s": settle_time(t, mass_err, 0.01 * m_true),
         "settle_01pct_s": settle_time(t, mass_err, 0.001 * m_true),
         "attitude_rms_arcsec": float(np.sqrt(np.nanmean(ang**2)) / ARCSEC),
         "attitude_rms_steady_arcsec": float(np.sqrt(np.nanmean(ang[steady] ** 2)) / ARCSEC),
-        "attitude_sigma_steady_arcsec": (np.sqrt(np.nanmean(e[:, steady] ** 2, axis=1)) / ARCSEC).tolist(),
+        "attitude_sigma_steady_arcsec": [finite_or_none(v) for v in np.sqrt(np.nanmean(e[:, steady] ** 2, axis=1)) / ARCSEC],
         "inside_3sigma": float(np.mean(inside[ok])),
         "nees_mean": float(np.nanmean(nees)),
         "nees_band_single_run": [float(lo3), float(hi3)],
@@ -63,3 +83,4 @@ def case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float =
         "message": hist.message,
         "wall_s": float(result.wall_s),
     }
+    return {k: (finite_or_none(v) if isinstance(v, float) else v) for k, v in out.items()}

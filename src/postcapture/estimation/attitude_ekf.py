@@ -80,6 +80,7 @@ class AttitudeEKF:
         self.raise_on_divergence = raise_on_divergence
         self.diverged = False
         self.message = ""
+        self.cause = ""
         self._rejections = 0
         self.last_gain = np.zeros((3, 3))
 
@@ -90,6 +91,7 @@ class AttitudeEKF:
 
     def _fail(self, t: float, cause: str) -> None:
         self.diverged = True
+        self.cause = cause
         self.message = f"diverged at t = {t:.6g} s: {cause}"
         if self.raise_on_divergence:
             raise FilterDivergenceError(self.name, t, cause)

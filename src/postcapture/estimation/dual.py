@@ -230,7 +230,7 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
             if progress is not None and k % 50 == 0:
                 progress((k + 1) / (n_t - 1))
             if getattr(filt, "diverged", False) or getattr(filt, "status", "running") == "failed" or mass.diverged:
-                raise FilterDivergenceError(config.name, t1, filt.message or mass.message)
+                raise FilterDivergenceError(config.name, t1, filt.cause or mass.cause)
     except FilterDivergenceError as exc:
         if raise_on_divergence:
             raise

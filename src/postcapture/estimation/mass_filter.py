@@ -7,6 +7,9 @@ oscillation). Its measurement is ``z = [chaser acceleration (3), arm joint accel
 predicted by the plant model at the attitude filter's state, with covariance ``R`` (the reference:
 ``diag(1e-4 I3, 1e-2 I7)``).
 
+With ``accel_bias=True`` the filter also carries the accelerometer's bias (3, a random walk): a
+constant bias the size of the noise is otherwise read as a mass error before the manoeuvre starts.
+
 The measurement Jacobian ``dz/dtheta`` is analytic. ``sensitivity="partial"`` is the reference's: the
 derivative at a fixed plant state. ``sensitivity="total"`` adds the plant state's own dependence on
 the mass: ``dz/dtheta = H S + h`` with ``S = dx/dtheta`` carried through the model's exact step Jacobians
@@ -48,6 +51,10 @@ class MassFilterTuning:
         See the module docstring.
     gate_probability : float or None
         Chi-square gate on the measurement's NIS (None: no gate).
+    accel_bias : bool
+        Also estimate the accelerometer bias (3 more states; the first three measurements read it).
+    P0_accel_bias, q_accel_bias : float
+        Its initial variance per axis ((m/s^2)^2) and random-walk variance per step.
     """
 
     R_diag: np.ndarray
@@ -57,6 +64,9 @@ class MassFilterTuning:
     sigmoid: SigmoidMap = field(default_factory=SigmoidMap)
     sensitivity: str = "total"
     gate_probability: float | None = None
+    accel_bias: bool = False
+    P0_accel_bias: float = (50e-6 * 9.80665) ** 2
+    q_accel_bias: float = 0.0
 
     def __post_init__(self):
         if self.sensitivity not in ("total", "partial"):
@@ -91,13 +101,28 @@ class MassFilter:
                  raise_on_divergence: bool = True):
         self.tuning = tuning
         self.map = tuning.sigmoid
-        self.x = float(self.map.inverse(theta0))
-        self.P = float(tuning.P0)
+        self.nb = 3 if tuning.accel_bias else 0
+        self.s = np.zeros(1 + self.nb)  # [x, accelerometer bias (3)]
+        self.s[0] = float(self.map.inverse(theta0))
+        self.Ps = np.zeros((1 + self.nb, 1 + self.nb))
+        self.Ps[0, 0] = float(tuning.P0)
+        self.Ps[1:, 1:] = tuning.P0_accel_bias * np.eye(self.nb)
         self.t0, self.t_end = float(t0), float(t_end)
         self.name = name
         self.raise_on_divergence = raise_on_divergence
         self.diverged = False
         self.message = ""
+        self.cause = ""
+
+    @property
+    def x(self) -> float:
+        """The sigmoid pre-image of the mass."""
+        return float(self.s[0])
+
+    @property
+    def P(self) -> float:
+        """Variance of ``x``."""
+        return float(self.Ps[0, 0])
 
     @property
     def theta(self) -> float:
@@ -109,6 +134,11 @@ class MassFilter:
         """One-sigma of the mass estimate (kg), through the map's slope."""
         return float(abs(self.map.derivative(self.x)) * np.sqrt(self.P))
 
+    @property
+    def accel_bias(self) -> np.ndarray:
+        """Accelerometer-bias estimate (m/s^2); zeros when not estimated."""
+        return self.s[1:].copy() if self.nb else np.zeros(3)
+
     def process_noise(self, t: float) -> float:
         """Scheduled variance added per step at time ``t``."""
         span = max(self.t_end - self.t0, 1e-12)
@@ -116,37 +146,46 @@ class MassFilter:
         return self.tuning.q_start + a * (self.tuning.q_end - self.tuning.q_start)
 
     def predict(self, t: float) -> None:
-        """Random-walk prediction: ``P <- P + q(t)``."""
-        self.P += self.process_noise(t)
+        """Random-walk prediction of the mass (scheduled) and of the bias."""
+        self.Ps[0, 0] += self.process_noise(t)
+        if self.nb:
+            self.Ps[1:, 1:] += self.tuning.q_accel_bias * np.eye(self.nb)
 
     def update(self, innovation, dz_dtheta, t: float):
         """Correct with the measurement innovation ``z - z_hat`` and ``dz/dtheta`` (both (m,), NaN = missing).
 
-        Returns the update result (with ``nis``), or None when no component was valid.
+        ``z_hat`` is the plant's prediction; the filter subtracts its own bias estimate. Returns the
+        update result (with ``nis``), or None when no component was valid.
         """
-        nu = np.asarray(innovation, dtype=float)
+        nu = np.array(innovation, dtype=float)
+        if self.nb:
+            nu[:3] -= self.s[1:]
         ok = np.isfinite(nu) & np.isfinite(dz_dtheta)
         if not ok.any():
             return None
-        H = (np.asarray(dz_dtheta, dtype=float)[ok] * self.map.derivative(self.x))[:, None]
+        H = np.zeros((nu.size, 1 + self.nb))
+        H[:, 0] = np.asarray(dz_dtheta, dtype=float) * self.map.derivative(self.x)
+        if self.nb:
+            H[:3, 1:] = np.eye(3)
         try:
-            res = kalman.update(np.array([self.x]), np.array([[self.P]]), nu[ok], H, np.diag(self.tuning.R_diag[ok]),
+            res = kalman.update(np.zeros(1 + self.nb), self.Ps, nu[ok], H[ok], np.diag(self.tuning.R_diag[ok]),
                                 gate_probability=self.tuning.gate_probability)
         except CovarianceError as exc:
             self._fail(t, str(exc))
             return None
         if res.accepted:
-            x_new = float(res.x[0])
-            # Keep the pre-image where the sigmoid is not flat in floating point (|c x| < 30).
+            self.s = self.s + res.x
+            # keep the pre-image where the sigmoid is not flat in floating point (|c x| < 30)
             limit = 30.0 / self.map.c
-            self.x = min(max(x_new, -limit), limit)
-            self.P = float(res.P[0, 0])
-        if not (np.isfinite(self.x) and np.isfinite(self.P) and self.P > 0):
+            self.s[0] = min(max(self.s[0], -limit), limit)
+            self.Ps = res.P
+        if not (np.all(np.isfinite(self.s)) and np.all(np.isfinite(self.Ps)) and self.Ps[0, 0] > 0):
             self._fail(t, "non-finite or non-positive mass variance")
         return res
 
     def _fail(self, t: float, cause: str) -> None:
         self.diverged = True
+        self.cause = cause
         self.message = f"diverged at t = {t:.6g} s: {cause}"
         if self.raise_on_divergence:
             raise FilterDivergenceError(self.name, t, cause)

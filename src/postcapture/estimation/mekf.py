@@ -206,6 +206,7 @@ class MEKF:
         self.raise_on_divergence = raise_on_divergence
         self.status = "running"
         self.message = ""
+        self.cause = ""
         self.counts = {"updates": 0, "rejected": 0, "measurements_missing": 0, "inputs_missing": 0}
         self._consecutive_rejections = 0
         self._Q_cache: dict[float, np.ndarray] = {}
@@ -215,6 +216,7 @@ class MEKF:
     # -- lifecycle -------------------------------------------------------------------------------
     def _diverge(self, cause: str) -> None:
         self.status = "failed"
+        self.cause = cause
         self.message = f"filter {self.name!r} diverged at t = {self.t:.6g} s: {cause}"
         logger.error(self.message)
         if self.raise_on_divergence:

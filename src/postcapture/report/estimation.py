@@ -34,11 +34,13 @@ def results_table(summary: dict) -> str:
     ]
     for name, m in summary["cases"].items():
         note = "" if m.get("success", True) else f"   {m.get('message', 'diverged')}"
+        three_sigma = None if m["mass_sigma_kg"] is None else 3 * m["mass_sigma_kg"]
         lines.append(
-            f"{name:<22}{m['mass_error_kg']:>10.2f}{3 * m['mass_sigma_kg']:>9.2f}"
+            f"{name:<22}{_fmt(m['mass_error_kg'], '.2f', '-'):>10}{_fmt(three_sigma, '.2f', '-'):>9}"
             f"{_fmt(m['settle_1pct_s'], '.1f'):>8}{_fmt(m['settle_01pct_s'], '.1f'):>9}"
-            f"{m['attitude_rms_arcsec']:>10.3g}{m['attitude_rms_steady_arcsec']:>9.3g}{m['inside_3sigma']:>7.1%}"
-            f"{m['nees_mean']:>7.2f}{_fmt(m['nis_mean'], '.2f', '-'):>6}{m['wall_s']:>7.1f}{note}"
+            f"{_fmt(m['attitude_rms_arcsec'], '.3g', '-'):>10}{_fmt(m['attitude_rms_steady_arcsec'], '.3g', '-'):>9}"
+            f"{_fmt(m['inside_3sigma'], '.1%', '-'):>7}{_fmt(m['nees_mean'], '.2f', '-'):>7}"
+            f"{_fmt(m['nis_mean'], '.2f', '-'):>6}{m['wall_s']:>7.1f}{note}"
         )
     crlb = summary.get("crlb_mass_kg")
     if crlb:
@@ -88,8 +90,10 @@ def attitude_error_figure(t, error, sigma, name: str) -> Figure:
         ax.set_ylabel(f"{axis} (arcsec)")
         ax.grid(alpha=0.3)
         late = t >= t[0] + 0.1 * (t[-1] - t[0])  # scale on the run after the initial transient
-        span = np.nanmax(np.abs(np.concatenate([error[i][late], 3 * sigma[i][late]]))) / ARCSEC
-        if np.isfinite(span) and span > 0:
+        values = np.abs(np.concatenate([error[i][late], 3 * sigma[i][late]]))
+        values = values[np.isfinite(values)]  # a diverged filter leaves NaN
+        if values.size and values.max() > 0:
+            span = values.max() / ARCSEC
             ax.set_ylim(-2.0 * span, 2.0 * span)
         if i == 0:
             ax.set_title(f"Attitude error, {name}")

@@ -1,0 +1,34 @@
+"""The main job against the acceptance criteria (slow: full 300 s runs)."""
+
+import pytest
+
+from postcapture.campaign.main_job import run_main_job
+
+
+@pytest.mark.slow
+def test_reference_profile_reproduces_the_reference(envisat):
+    r = run_main_job(envisat, profile="reference", cases=("ekf_flexible", "ekf_stiff", "mekf_flexible", "joint_flexible"))
+    c = {k: v.metrics for k, v in r.cases.items()}
+    flex = abs(c["ekf_flexible"]["mass_error_kg"])
+    assert flex <= 11.0  # the reference's 11 kg
+    assert abs(c["ekf_stiff"]["mass_error_kg"]) >= 5 * flex  # the stiff-model filter is biased
+    assert abs(c["joint_flexible"]["mass_error_kg"]) <= 1.0  # the goal
+    assert r.wall_s <= 120.0
+
+
+@pytest.mark.slow
+def test_realistic_profile_mekf_converges_and_meets_farrenkopf(envisat):
+    r = run_main_job(envisat, profile="realistic", cases=("mekf_flexible",), crlb=False)
+    m = r.cases["mekf_flexible"].metrics
+    assert abs(m["mass_error_kg"]) <= 0.001 * r.true_mass
+    ratios = r.farrenkopf["mekf_flexible"]["ratio"]
+    assert all(0.8 <= x <= 1.2 for x in ratios), ratios
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("error_fraction", [-0.1, 0.1])
+def test_flexible_ekf_dual_converges_from_ten_percent(envisat, error_fraction):
+    r = run_main_job(envisat, profile="realistic", cases=("ekf_flexible",), crlb=False,
+                     initial_mass_error=error_fraction * envisat.target.mass)
+    m = r.cases["ekf_flexible"].metrics
+    assert abs(m["mass_error_kg"]) <= 0.01 * r.true_mass, m
