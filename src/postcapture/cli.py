@@ -11,6 +11,8 @@ import logging
 import os
 import sys
 
+from postcapture.core.errors import Problem, ScenarioError
+
 __all__ = ["main"]
 
 EXAMPLES = """examples:
@@ -20,6 +22,8 @@ EXAMPLES = """examples:
   postcapture simulate --scenario my_scenario.toml --variant stiff --out run.nc
   postcapture modes --count 12
   postcapture panel calibrate --panel envisat --weights 1,10,0.1 --out results/panel
+  postcapture fmu export -o envisat.fmu && postcapture fmu info envisat.fmu
+  postcapture run --plant fmu:envisat.fmu
   postcapture bench --json
 """
 
@@ -103,13 +107,22 @@ def _cmd_run(args) -> int:
     from postcapture.report.estimation import results_table
 
     scenario = load_scenario(args.scenario)
+    plant = args.plant
+    cases = args.cases
+    if plant != "native":
+        if not plant.startswith("fmu:") or not plant[4:]:
+            raise ScenarioError([Problem("--plant", "native or fmu:FILE.fmu", repr(plant))])
+        if cases is None:  # an FMU is one plant: run the cases meant for the flexible model
+            cases = ("ekf_flexible", "mekf_flexible", "joint_flexible")
     bar, update = _progress_bar("run")
     with bar:
         result = run_main_job(
             scenario,
             profile=args.profile,
             duration=args.duration,
-            cases=args.cases,
+            cases=cases or ("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff", "joint_flexible"),
+            plant=plant,
+            mapping=args.map,
             initial_mass_error=args.initial_mass_error,
             seed=args.seed,
             workers=args.workers,
@@ -123,6 +136,48 @@ def _cmd_run(args) -> int:
     else:
         print(results_table(summary))
         print(f"results written to {args.out}/ ({', '.join(sorted(p.name for p in paths.values()))})")
+    return 0
+
+
+def _cmd_fmu_export(args) -> int:
+    from postcapture.config import load_scenario
+    from postcapture.fmi import export_fmu
+
+    scenario = load_scenario(args.scenario)
+    if args.fmi != 2:
+        raise ScenarioError([Problem("--fmi", "2 (FMI 3.0 export is not implemented yet)", str(args.fmi))])
+
+    def progress(msg, *rest):
+        if not args.json:
+            print(f"  ... {msg}", file=sys.stderr)
+
+    report = export_fmu(scenario, args.output, variant=args.variant, fmi_version=args.fmi,
+                        directional_derivatives=not args.no_directional, step_jacobian=not args.no_step_jacobian,
+                        panel_segments=args.panel_segments, progress=progress)
+    info = {
+        "fmu": str(report.path), "mapping": str(report.mapping_path), "fmi_version": report.fmi_version,
+        "variant": report.variant, "integrator": report.integrator, "step_s": report.step,
+        "n_states": report.n_states, "n_variables": report.n_variables, "wall_s": report.seconds,
+        "codegen_s": report.seconds_codegen, "compile_s": report.seconds_compile,
+        "directional_derivatives": report.directional_derivatives, "step_jacobian": report.step_jacobian,
+    }
+    if args.json:
+        _print_json(info)
+    else:
+        print(f"exported {info['fmu']} (FMI {info['fmi_version']} co-simulation, {info['variant']}, "
+              f"{info['n_states']} states, {info['n_variables']} variables) in {info['wall_s']:.1f} s; "
+              f"mapping {info['mapping']}")
+    return 0
+
+
+def _cmd_fmu_info(args) -> int:
+    from postcapture.fmi import fmu_info, format_fmu_info
+
+    info = fmu_info(args.fmu, mapping=args.map)
+    if args.json:
+        _print_json(info)
+    else:
+        print(format_fmu_info(info))
     return 0
 
 
@@ -297,8 +352,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="seconds (default: scenario)")
     p.add_argument("--profile", choices=["reference", "realistic"], default="reference",
                    help="sensor profile and tuning (default: reference)")
-    p.add_argument("--cases", type=_cases, default=("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff",
-                                                     "joint_flexible"), metavar="A,B,...", help="cases to run")
+    p.add_argument("--cases", type=_cases, default=None, metavar="A,B,...",
+                   help="cases to run (default: the reference's four dual schemes and the joint EKF)")
+    p.add_argument("--plant", default="native", metavar="native|fmu:FILE.fmu",
+                   help="the filters' process model: the native Pinocchio model or a co-simulation FMU")
+    p.add_argument("--map", default=None, metavar="MAP.toml", help="mapping of the FMU's variables (default: its own)")
     p.add_argument("--initial-mass-error", type=float, default=None, metavar="KG",
                    help="added to the true mass to start the filters (default: scenario, -100 kg)")
     p.add_argument("--seed", type=int, default=None, help="sensor-noise seed (default: scenario)")
@@ -338,6 +396,24 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--out", default=None, metavar="DIR", help="write tables, JSON, a TOML fragment and figures here")
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=_cmd_panel_calibrate)
+
+    p = sub.add_parser("fmu", help="FMI: export the plant as a co-simulation FMU, inspect an FMU")
+    fmu_sub = p.add_subparsers(dest="fmu_command", required=True, parser_class=_Parser)
+    c = fmu_sub.add_parser("export", help="build a co-simulation FMU (compiled C) of the scenario's plant")
+    c.add_argument("--scenario", default="envisat")
+    c.add_argument("--variant", default="flexible", choices=["flexible", "stiff", "rigid"])
+    c.add_argument("--fmi", type=int, default=2, choices=[2, 3], help="FMI version (2; 3 is not implemented yet)")
+    c.add_argument("--panel-segments", type=_positive_int, default=None, metavar="N")
+    c.add_argument("--no-directional", action="store_true", help="without fmi2GetDirectionalDerivative")
+    c.add_argument("--no-step-jacobian", action="store_true", help="without the exact step-Jacobian outputs")
+    c.add_argument("-o", "--output", required=True, metavar="FILE.fmu")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(func=_cmd_fmu_export)
+    c = fmu_sub.add_parser("info", help="variables, capabilities and what a filter mapping needs")
+    c.add_argument("fmu", metavar="FILE.fmu")
+    c.add_argument("--map", default=None, metavar="MAP.toml")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(func=_cmd_fmu_info)
 
     p = sub.add_parser("bench", help="speed benchmark (real-time factors, step Jacobian, build time)")
     p.add_argument("--scenario", default="envisat")

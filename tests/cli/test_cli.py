@@ -163,3 +163,13 @@ def test_run_bad_case_name_exits_1(capsys):
         main(["run", "--cases", "ekf_flexible,kalman_magic"])
     assert exc.value.code == 1
     assert "expected case names among" in capsys.readouterr().err
+
+
+def test_fmu_info_and_run_on_a_missing_fmu_exit_1(capsys, tmp_path):
+    code, _, err = run(capsys, "fmu", "info", str(tmp_path / "none.fmu"))
+    assert code == 1 and "none.fmu" in err and "no such file" in err and "Traceback" not in err
+    code, _, err = run(capsys, "run", "--plant", f"fmu:{tmp_path / 'none.fmu'}", "--duration", "1", "--no-crlb",
+                       "--workers", "1", "--out", str(tmp_path / "o"))
+    assert code == 1 and "no such file" in err
+    code, _, err = run(capsys, "run", "--plant", "simulink", "--duration", "1")
+    assert code == 1 and "native or fmu:FILE.fmu" in err

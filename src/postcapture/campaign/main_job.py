@@ -71,12 +71,14 @@ class MainJobResult:
     noise: dict = field(default_factory=dict)
     wall_s: float = 0.0
     truth_wall_s: float = 0.0
+    plant: str = "native"
 
     def summary(self) -> dict:
         """The JSON the CLI prints: ``{"cases": {name: {...}}, "wall_s": ...}`` plus context."""
         return {
             "scenario": self.scenario,
             "profile": self.profile,
+            "plant": self.plant,
             "duration_s": self.duration_s,
             "true_mass_kg": self.true_mass,
             "initial_mass_kg": self.initial_mass,
@@ -98,8 +100,20 @@ def _run_case(job: dict):
     scenario = Scenario.model_validate(job["scenario"])
     spec = CASES[job["case"]]
     system = build_system(scenario, spec.variant)
-    model = NativeProcessModel(system, scenario.simulation.step, scenario.simulation.integrator, name=spec.name)
-    x0, S0 = initial_state_and_sensitivity(model, job["theta0"])
+    native = NativeProcessModel(system, scenario.simulation.step, scenario.simulation.integrator, name=spec.name)
+    plant = job.get("plant", "native")
+    if plant == "native":
+        model = native
+        x0, S0 = initial_state_and_sensitivity(model, job["theta0"])
+    else:
+        from postcapture.fmi import FMUProcessModel
+
+        model = FMUProcessModel(plant[len("fmu:"):], mapping=job.get("mapping"), name=spec.name)
+        model.mass = job["theta0"]
+        if model.nx == native.nx and model.n == native.n:  # one of ours: same state layout as the native plant
+            x0, S0 = initial_state_and_sensitivity(native, job["theta0"])
+        else:  # another tool's FMU: its own start values, no initial sensitivity
+            x0, S0 = model.initial_state(), np.zeros(model.n)
     q0 = rot.box_plus(job["q_true0"], job["dq0"])
     kwargs = dict(x0=x0, theta0=job["theta0"], t_grid=job["t_grid"], S0=S0, q0_BN=q0, raise_on_divergence=False)
     if spec.scheme == "dual":
@@ -132,6 +146,8 @@ def run_main_job(
     seed: int | None = None,
     workers: int = 2,
     crlb: bool = True,
+    plant: str = "native",
+    mapping: str | None = None,
     progress: Callable[[str, float], None] | None = None,
 ) -> MainJobResult:
     """Run the main job on a scenario.
@@ -153,6 +169,11 @@ def run_main_job(
         Worker processes for the cases (1 runs them in this process).
     crlb : bool
         Also compute the mass Cramer-Rao bound (one more pass of step Jacobians).
+    plant : str
+        The filters' process model: ``"native"`` (Pinocchio) or ``"fmu:PATH"`` (any co-simulation FMU;
+        every case then runs on that FMU, whatever its case name's variant).
+    mapping : str, optional
+        The FMU's mapping TOML (default: the one inside the FMU or next to it).
     progress : callable(message, fraction), optional
     """
     unknown = [c for c in cases if c not in CASES]
@@ -162,6 +183,8 @@ def run_main_job(
         raise ScenarioError([Problem("profile", "reference or realistic", repr(profile))])
     if scenario.target is None:
         raise ScenarioError([Problem("target", "a target whose mass to estimate", "none")])
+    if plant != "native" and not plant.startswith("fmu:"):
+        raise ScenarioError([Problem("plant", "native or fmu:PATH", repr(plant))])
     wall0 = time.perf_counter()
     est = scenario.estimation
     seed = est.seed if seed is None else int(seed)
@@ -186,7 +209,8 @@ def run_main_job(
     m_true = float(scenario.target.mass)
     theta0 = m_true + dm0
     base = {"scenario": scenario.model_dump(), "t_grid": truth.t, "profile": sensor_profile, "profile_name": profile,
-            "sensors": sensors, "theta0": theta0, "q_true0": truth["q_BN"][:, 0], "dq0": dq0}
+            "sensors": sensors, "theta0": theta0, "q_true0": truth["q_BN"][:, 0], "dq0": dq0,
+            "plant": plant, "mapping": mapping}
     jobs = [(_run_case, {**base, "case": c}) for c in cases]
     if crlb:
         jobs.append((_run_crlb, base))
@@ -205,7 +229,7 @@ def run_main_job(
             outputs[name] = value
             tell(f"{name} done", 0.15 + 0.85 * (i + 1) / len(jobs))
     res = MainJobResult(scenario.name, profile, float(truth.t[-1] - truth.t[0]), m_true, theta0, seed, truth,
-                        truth_wall_s=truth_wall)
+                        truth_wall_s=truth_wall, plant=plant)
     res.crlb = outputs.pop("crlb", None)
     for name in cases:
         res.cases[name] = CaseOutput(name, outputs[name], case_metrics(outputs[name], truth["q_BN"], m_true))

@@ -97,11 +97,16 @@ class AttitudeEKF:
             raise FilterDivergenceError(self.name, t, cause)
         logger.warning("%s %s", self.name, self.message)
 
-    def predict(self, t: float, dt: float) -> Prediction:
-        """Propagate the plant copy and the attitude covariance from ``t`` to ``t + dt``."""
+    def predict(self, t: float, dt: float, Q_extra=None) -> Prediction:
+        """Propagate the plant copy and the attitude covariance from ``t`` to ``t + dt``.
+
+        ``Q_extra`` (3, 3) is added to the tuning's ``Q`` for this step (e.g. what the plant copy's
+        mass uncertainty does to its attitude, see :mod:`postcapture.estimation.dual`).
+        """
         p = self.model.predict(self.x, t, dt, jacobians=True)
         Fa = p.F[self.att, self.att]
-        self.P = kalman.symmetrize(Fa @ self.P @ Fa.T + self.tuning.Q)
+        Q = self.tuning.Q if Q_extra is None else self.tuning.Q + Q_extra
+        self.P = kalman.symmetrize(Fa @ self.P @ Fa.T + Q)
         self.x = p.x
         if not (np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.P))):
             self._fail(t + dt, "non-finite state or covariance after the prediction")

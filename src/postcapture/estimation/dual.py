@@ -13,7 +13,13 @@ Each filter step from ``t_k`` to ``t_k+1``:
 5. with ``shift_state`` the plant copy moves to first order onto the trajectory of the new mass,
    ``x <- x (+) S d(theta)``: the copy then behaves as if it had run with the new mass all along.
 
-Steps 1-4 are the reference's scheme (its figure 3); 5 and the total sensitivity are ours.
+With ``mass_aware_q`` the EKF also knows what the mass uncertainty does to its attitude: the copy's
+remaining rate error is about ``S_rate (theta_hat - theta)``, so each step adds
+``sigma_theta^2 (S_rate dt)(S_rate dt)^T`` to ``Q`` (the mass treated as a consider parameter). A
+constant ``Q`` is either too small while the mass is uncertain or too large once it has converged.
+
+Steps 1-4 are the reference's scheme (its figure 3); 5, the total sensitivity and the mass-aware ``Q``
+are ours.
 """
 
 from __future__ import annotations
@@ -76,6 +82,8 @@ class DualConfig:
         Move the plant copy along ``S d(theta)`` after each mass update (step 5).
     reset_rates : bool
         With the MEKF, overwrite the plant copy's body rate with the bias-corrected gyro rate.
+    mass_aware_q : bool
+        Add the mass uncertainty's effect on the plant copy's attitude to the EKF's ``Q``.
     name : str
     """
 
@@ -86,6 +94,7 @@ class DualConfig:
     mekf_P0: np.ndarray | None = None
     shift_state: bool = True
     reset_rates: bool = False
+    mass_aware_q: bool = False
     name: str = "dual"
 
     def __post_init__(self):
@@ -176,7 +185,11 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
             mass.predict(t)
             model.mass = mass.theta
             if config.attitude == "ekf":
-                p = filt.predict(t, dt)
+                Q_extra = None
+                if config.mass_aware_q:
+                    d = S[rate] * dt * mass.sigma
+                    Q_extra = np.outer(d, d)
+                p = filt.predict(t, dt, Q_extra)
                 S = p.F @ S + p.g
                 res = filt.update(star[:, k + 1], t1)
                 if res is not None and res.accepted:  # the copy's attitude now leans on the measurement

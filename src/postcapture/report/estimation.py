@@ -26,7 +26,8 @@ def _fmt(value, spec: str, none: str = "never") -> str:
 def results_table(summary: dict) -> str:
     """The main job's table (one line per case) from its JSON summary."""
     lines = [
-        f"scenario {summary['scenario']}, profile {summary['profile']}, {summary['duration_s']:g} s; "
+        f"scenario {summary['scenario']}, profile {summary['profile']}, plant {summary.get('plant', 'native')}, "
+        f"{summary['duration_s']:g} s; "
         f"true mass {summary['true_mass_kg']:.1f} kg, filters start at {summary['initial_mass_kg']:.1f} kg",
         f"{'case':<22}{'mass err':>10}{'3 sigma':>9}{'1% at':>8}{'0.1% at':>9}{'att RMS':>10}{'steady':>9}"
         f"{'in 3s':>7}{'NEES':>7}{'NIS':>6}{'wall':>7}",

@@ -1,0 +1,318 @@
+"""``export_fmu``: a scenario's plant as an FMI 2.0 co-simulation FMU with compiled C inside.
+
+Steps: build the plant (:func:`~postcapture.dynamics.build.build_system`), express it in CasADi
+(:class:`~postcapture.fmi.symbolic.plant.SymbolicPlant`), generate C, write the model data header and
+``modelDescription.xml``, compile with the system C compiler, write the mapping file, zip.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import re
+import shutil
+import tempfile
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from postcapture.config.schema import Scenario
+from postcapture.fmi._extras import import_casadi, import_fmpy
+from postcapture.fmi.mapping import JacobianOutputs, Mapping
+
+__all__ = ["ExportReport", "export_fmu"]
+
+logger = logging.getLogger(__name__)
+
+_RUNTIME = ("pc_core.c", "pc_step.c", "pc_core.h", "pc_types.h", "pc_fmi2.c")
+_FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+MAPPING_RESOURCE = "resources/postcapture_mapping.toml"
+
+
+@dataclass(frozen=True)
+class ExportReport:
+    """What :func:`export_fmu` built.
+
+    Attributes
+    ----------
+    path, mapping_path : Path
+        The FMU and its mapping file (also embedded as ``resources/postcapture_mapping.toml``).
+    model_identifier, guid : str
+        C identifier (library name) and GUID of the FMU.
+    fmi_version, variant, integrator : str
+        ``"2.0"``, the model variant and the internal integrator.
+    step : float
+        Internal integrator step (s).
+    n_states, n_variables : int
+        State size ``nx`` and number of FMI variables.
+    seconds, seconds_codegen, seconds_compile : float
+        Wall times (s): total, CasADi code generation, C compilation.
+    c_bytes : int
+        Size of the generated C sources.
+    directional_derivatives, step_jacobian : bool
+        Whether the FMU provides directional derivatives and the Jacobian outputs.
+    instructions : dict of str to int
+        CasADi instruction count of each generated function.
+    """
+
+    path: Path
+    mapping_path: Path
+    model_identifier: str
+    guid: str
+    fmi_version: str
+    variant: str
+    integrator: str
+    step: float
+    n_states: int
+    n_variables: int
+    directional_derivatives: bool
+    step_jacobian: bool
+    seconds: float
+    seconds_codegen: float
+    seconds_compile: float
+    c_bytes: int
+    instructions: dict
+
+
+def _identifier(text: str) -> str:
+    ident = re.sub(r"[^A-Za-z0-9_]", "_", text)
+    return ident if re.match(r"[A-Za-z_]", ident) else "m_" + ident
+
+
+def _dependencies(plant, interface) -> dict[int, list[int]]:
+    """Value references of the knowns (states, inputs) each state derivative and named output depends on."""
+    ca = import_casadi()
+    q, v, u, p = plant.symbols()
+    ddq = plant.acceleration(q, v, u, p)
+    outs = ca.vertcat(plant.state_derivative(q, v, ddq), plant.outputs(q, v, ddq))
+    sp = ca.jacobian_sparsity(outs, ca.vertcat(q, v, u))
+    rows, cols = sp.get_triplet()
+    x0, nx = interface.blocks["x"]
+    u0, _ = interface.blocks["u"]
+    dx0, _ = interface.blocks["dx"]
+    y0, ny = interface.blocks["y"]
+    known = [x0 + c if c < nx else u0 + (c - nx) for c in range(sp.size2())]
+    unknown = [dx0 + r for r in range(nx)] + [y0 + r for r in range(ny)]
+    deps: dict[int, list[int]] = {vr: [] for vr in unknown}
+    for r, c in zip(rows, cols, strict=True):
+        deps[unknown[r]].append(known[c])
+    return {k: sorted(v) for k, v in deps.items()}
+
+
+def export_fmu(
+    scenario: Scenario | str | Path,
+    out_path: str | Path,
+    *,
+    variant: str = "flexible",
+    fmi_version: int = 2,
+    directional_derivatives: bool = True,
+    step_jacobian: bool = True,
+    panel_segments: int | None = None,
+    excitation: bool = True,
+    integrator: str | None = None,
+    step: float | None = None,
+    model_identifier: str | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> ExportReport:
+    """Export the plant of a scenario as a co-simulation FMU.
+
+    Parameters
+    ----------
+    scenario : Scenario, str or Path
+        A scenario, or a built-in name or TOML path for :func:`postcapture.config.load_scenario`.
+    out_path : str or Path
+        The ``.fmu`` file to write; the mapping goes next to it as ``<stem>.toml``.
+    variant : {"flexible", "stiff", "rigid"}
+        Model variant (see :func:`postcapture.dynamics.assembly.assemble`).
+    fmi_version : {2}
+        FMI version (only 2.0 is implemented).
+    directional_derivatives : bool
+        Provide ``fmi2GetDirectionalDerivative`` (continuous partials of state derivatives and outputs
+        with respect to states and inputs).
+    step_jacobian : bool
+        Add the exact step and measurement Jacobian outputs ``F``, ``g``, ``H``, ``h``.
+    panel_segments : int, optional
+        Cut every panel into this many segments.
+    excitation : bool
+        Embed the scenario's excitation profiles (False: only the FMU inputs drive the plant).
+    integrator : {"sdirk3", "sdirk2", "rk4"}, optional
+        Internal integrator (default: the scenario's).
+    step : float, optional
+        Internal integrator step (s) (default: the scenario's); ``fmi2DoStep`` takes
+        ``round(H / step)`` substeps.
+    model_identifier : str, optional
+        C identifier and library name (default ``<scenario>_<variant>``).
+    progress : callable, optional
+        ``progress(message: str) -> None``, called at each stage.
+
+    Returns
+    -------
+    ExportReport
+
+    Raises
+    ------
+    FMIError
+        When the C compiler is missing or compilation fails.
+    ValueError
+        For an unknown variant, integrator or FMI version.
+    """
+    import_casadi()
+    fmpy = import_fmpy()
+    from postcapture import __version__
+    from postcapture.config import load_scenario
+    from postcapture.dynamics.build import build_system, initial_state
+    from postcapture.dynamics.integrators import TABLEAUX
+    from postcapture.fmi.export.c_header import write_c_header
+    from postcapture.fmi.export.compiler import compile_library, platform_folder, zip_fmu
+    from postcapture.fmi.export.interface import build_interface
+    from postcapture.fmi.export.model_description import DescriptionInfo, write_model_description
+    from postcapture.fmi.symbolic.functions import generate_c
+    from postcapture.fmi.symbolic.plant import SymbolicPlant
+
+    say = progress or (lambda msg: None)
+    if fmi_version != 2:
+        raise ValueError(
+            f"fmi_version: expected 2 (FMI 3.0 export is not implemented), found {fmi_version!r}"
+        )
+    t_start = time.perf_counter()
+    if not isinstance(scenario, Scenario):
+        scenario = load_scenario(scenario)
+    integrator = integrator or scenario.simulation.integrator
+    if integrator not in TABLEAUX:
+        raise ValueError(f"integrator: expected one of {sorted(TABLEAUX)}, found {integrator!r}")
+    step = float(step if step is not None else scenario.simulation.step)
+    if not step > 0:
+        raise ValueError(f"step: expected a positive number of seconds, found {step}")
+    out_path = Path(out_path)
+    ident = _identifier(model_identifier or f"{scenario.name}_{variant}")
+    say("building the plant")
+    system = build_system(scenario, variant, panel_segments=panel_segments, excitation=excitation)
+    q0, v0 = initial_state(system)
+    x0 = np.concatenate([q0, v0])
+    plant = SymbolicPlant(system)
+    key = hashlib.sha256(
+        "|".join(
+            [
+                scenario.model_dump_json(),
+                variant,
+                str(panel_segments),
+                str(excitation),
+                integrator,
+                repr(step),
+                str(directional_derivatives),
+                str(step_jacobian),
+                ident,
+                __version__,
+            ]
+        ).encode()
+    ).hexdigest()
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "postcapture:" + key)) + "}"
+    with tempfile.TemporaryDirectory(prefix="postcapture_fmu_") as tmp:
+        root = Path(tmp) / "fmu"
+        sources = root / "sources"
+        say("generating C with CasADi")
+        t0 = time.perf_counter()
+        gen = generate_c(plant, sources)
+        t_codegen = time.perf_counter() - t0
+        interface = build_interface(plant, x0, step_jacobian=step_jacobian, n_y=gen.n_y, n_z=gen.n_z)
+        header = write_c_header(
+            plant,
+            interface,
+            guid=guid,
+            tableau=TABLEAUX[integrator],
+            step=step,
+            profiles=system.inputs.profiles,
+            x0=x0,
+            n_jac_cols=gen.n_jac_cols,
+            directional=directional_derivatives,
+        )
+        (sources / "pc_model_data.h").write_text(header)
+        runtime = resources.files("postcapture.fmi") / "csrc"
+        for name in _RUNTIME:
+            (sources / name).write_text((runtime / name).read_text())
+        c_code = Path(fmpy.__file__).parent / "c-code"
+        for name in _FMI2_HEADERS:
+            shutil.copy(c_code / name, sources / name)
+        c_bytes = sum(p.stat().st_size for p in sources.glob("*.[ch]"))
+        say("compiling the shared library")
+        folder, suffix = platform_folder()
+        t_compile = compile_library(
+            sources,
+            Path(tmp) / "build",
+            root / "binaries" / folder / (ident + suffix),
+            jac_file="pc_model_jac.c",
+            fmu=str(out_path),
+        )
+        say("writing modelDescription.xml and the mapping")
+        info = DescriptionInfo(
+            model_name=f"{scenario.name} ({variant})",
+            model_identifier=ident,
+            guid=guid,
+            description=scenario.description or f"postcapture plant of scenario {scenario.name}",
+            generation_tool=f"postcapture {__version__} (CasADi {import_casadi().__version__})",
+            directional_derivatives=directional_derivatives,
+            source_files=tuple(sorted(p.name for p in sources.glob("*.c"))),
+            stop_time=scenario.simulation.duration,
+            step=scenario.simulation.sample_period,
+            integrator=integrator,
+            variant=variant,
+            scenario=scenario.name,
+        )
+        xml = write_model_description(interface, info, _dependencies(plant, interface))
+        (root / "modelDescription.xml").write_text(xml)
+        mapping = _mapping(plant, interface, ident, guid, integrator, step)
+        (root / "resources").mkdir(exist_ok=True)
+        (root / MAPPING_RESOURCE).write_text(mapping.to_toml())
+        zip_fmu(root, out_path)
+    mapping_path = out_path.with_suffix(".toml")
+    mapping_path.write_text(mapping.to_toml())
+    total = time.perf_counter() - t_start
+    logger.info(
+        "exported %s in %.1f s (codegen %.1f s, compile %.1f s)", out_path, total, t_codegen, t_compile
+    )
+    return ExportReport(
+        path=out_path,
+        mapping_path=mapping_path,
+        model_identifier=ident,
+        guid=guid,
+        fmi_version="2.0",
+        variant=variant,
+        integrator=integrator,
+        step=step,
+        n_states=plant.nx,
+        n_variables=len(interface.variables),
+        directional_derivatives=directional_derivatives,
+        step_jacobian=step_jacobian,
+        seconds=total,
+        seconds_codegen=t_codegen,
+        seconds_compile=t_compile,
+        c_bytes=c_bytes,
+        instructions=dict(gen.functions),
+    )
+
+
+def _mapping(plant, interface, ident: str, guid: str, integrator: str, step: float) -> Mapping:
+    state = tuple(interface.names("x"))
+    jac = None
+    if interface.step_jacobian:
+        jac = JacobianOutputs(
+            request="jacobian_request", F="F[{i},{j}]", g="g[{i}]", H="H[{i},{j}]", h="h[{i}]"
+        )
+    return Mapping(
+        state=state,
+        correction=tuple(interface.names("xc")),
+        reset="reset",
+        kinematics="free_flyer",
+        attitude=("q[7]", "q[4]", "q[5]", "q[6]"),
+        rate=("v[4]", "v[5]", "v[6]"),
+        accel=("accel_B_x", "accel_B_y", "accel_B_z"),
+        joint_accel=tuple(f"arm_ddq_{i + 1}" for i in range(plant.n_arm)),
+        mass="target_mass" if plant.has_target else None,
+        jacobians=jac,
+        info={"model_identifier": ident, "guid": guid, "integrator": integrator, "step": step},
+    )

@@ -1,0 +1,276 @@
+"""The exported FMU's variables: names, value references, causalities, units and start values.
+
+One table serves the ``modelDescription.xml`` writer, the C header (value-reference ranges) and the
+mapping file. Value references are consecutive, in this order:
+
+========================  ==========  ==============================================================
+block                     causality   meaning
+========================  ==========  ==============================================================
+``q[i]``, ``v[i]``        output      the state ``x = [q, v]`` (continuous states, ``initial="exact"``)
+``der(q[i])``, ...        local       ambient state derivatives (listed in ModelStructure/Derivatives)
+named outputs             output      ``q_BN_w`` ... ``accel_B_x`` ... ``arm_ddq_7``, tips, torsions
+parameters                parameter   ``target_mass``, ``k_<spring>``, ``d_<spring>`` (tunable)
+``force_x`` ... ``joint_n``  input    additive to the embedded excitation, held over a step
+``x_corr[i]``             input       the state correction (applied when ``reset > 0.5``)
+``reset``                 input       replace the state by ``x_corr`` at the start of ``fmi2DoStep``
+``jacobian_request``      input       compute ``F``, ``g``, ``H``, ``h`` during the next ``fmi2DoStep``
+``F[i,j]``, ``g[i]``,     output      the exact step and measurement Jacobians (discrete)
+``H[i,j]``, ``h[i]``
+========================  ==========  ==============================================================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from postcapture.config.excitation import CHASER_CHANNELS
+from postcapture.fmi.symbolic.plant import SymbolicPlant
+
+__all__ = ["ScalarVariable", "Interface", "build_interface", "UNITS"]
+
+# unit name -> SI base-unit exponents (FMI 2.0 BaseUnit attributes)
+UNITS = {
+    "1": {},
+    "m": {"m": 1},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "1/s": {"s": -1},
+    "kg": {"kg": 1},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+}
+
+
+@dataclass(frozen=True)
+class ScalarVariable:
+    """One FMI scalar variable; attribute names follow the FMI specification."""
+
+    name: str
+    valueReference: int
+    causality: str
+    variability: str
+    initial: str | None
+    description: str
+    unit: str | None = None
+    start: float | None = None
+    derivative: int | None = None  # 1-based index of the state this variable is the derivative of
+    block: str = ""  # "x", "dx", "y", "p", "u", "xc", "reset", "jreq", "jac"
+
+
+@dataclass
+class Interface:
+    """The variable table of an exported FMU and the index ranges of its blocks."""
+
+    variables: list[ScalarVariable]
+    blocks: dict[str, tuple[int, int]] = field(default_factory=dict)  # block -> (first vr, count)
+    nx: int = 0
+    nt: int = 0
+    nz: int = 0
+    step_jacobian: bool = False
+
+    def names(self, block: str) -> list[str]:
+        """Names of one block's variables, in value-reference order."""
+        first, count = self.blocks[block]
+        return [v.name for v in self.variables[first : first + count]]
+
+
+def _coordinate_labels(plant: SymbolicPlant):
+    """Description and units of each configuration and velocity coordinate."""
+    model = plant.model
+    q_lab, q_unit, v_lab, v_unit = [""] * plant.nq, [""] * plant.nq, [""] * plant.nv, [""] * plant.nv
+    for _i, _parent, kind, iq, iv, _R, _p in plant.joints:
+        name = model.names[_i]
+        if kind < 0:
+            for k, c in enumerate("xyz"):
+                q_lab[iq + k], q_unit[iq + k] = f"{name}: position {c} in N", "m"
+                v_lab[iv + k], v_unit[iv + k] = f"{name}: linear velocity {c}, body frame", "m/s"
+                v_lab[iv + 3 + k], v_unit[iv + 3 + k] = f"{name}: angular velocity {c}, body frame", "rad/s"
+            for k, c in enumerate("xyzw"):
+                q_lab[iq + 3 + k], q_unit[iq + 3 + k] = (
+                    f"{name}: attitude quaternion {c} (Pinocchio order x, y, z, w)",
+                    "1",
+                )
+        else:
+            q_lab[iq], q_unit[iq] = f"{name}: joint angle", "rad"
+            v_lab[iv], v_unit[iv] = f"{name}: joint rate", "rad/s"
+    return q_lab, q_unit, v_lab, v_unit
+
+
+_DER_UNIT = {"m": "m/s", "1": "1/s", "rad": "rad/s", "m/s": "m/s2", "rad/s": "rad/s2"}
+
+
+def build_interface(
+    plant: SymbolicPlant, x0: np.ndarray, *, step_jacobian: bool, n_y: int, n_z: int
+) -> Interface:
+    """The variable table of an FMU of ``plant`` starting at ``x0`` (nx,)."""
+    variables: list[ScalarVariable] = []
+    blocks: dict[str, tuple[int, int]] = {}
+
+    def add(block, **kw):
+        variables.append(ScalarVariable(valueReference=len(variables), block=block, **kw))
+
+    def begin(block):
+        blocks[block] = (len(variables), 0)
+
+    def end(block):
+        first, _ = blocks[block]
+        blocks[block] = (first, len(variables) - first)
+
+    q_lab, q_unit, v_lab, v_unit = _coordinate_labels(plant)
+    x_names = [f"q[{i + 1}]" for i in range(plant.nq)] + [f"v[{i + 1}]" for i in range(plant.nv)]
+    x_labels, x_units = q_lab + v_lab, q_unit + v_unit
+    begin("x")
+    for i, name in enumerate(x_names):
+        add(
+            "x",
+            name=name,
+            causality="output",
+            variability="continuous",
+            initial="exact",
+            description=f"state: {x_labels[i]}",
+            unit=x_units[i],
+            start=float(x0[i]),
+        )
+    end("x")
+    begin("dx")
+    for i, name in enumerate(x_names):
+        add(
+            "dx",
+            name=f"der({name})",
+            causality="local",
+            variability="continuous",
+            initial="calculated",
+            description=f"time derivative of {name}",
+            unit=_DER_UNIT[x_units[i]],
+            derivative=i + 1,
+        )
+    end("dx")
+    begin("y")
+    for s in plant.output_signals():
+        add(
+            "y",
+            name=s.name,
+            causality="output",
+            variability="continuous",
+            initial="calculated",
+            description=s.description,
+            unit=s.unit,
+        )
+    end("y")
+    if len(plant.output_signals()) != n_y:
+        raise RuntimeError(f"output table has {len(plant.output_signals())} entries, generated code {n_y}")
+    begin("p")
+    for p in plant.parameters:
+        add(
+            "p",
+            name=p.name,
+            causality="parameter",
+            variability="tunable",
+            initial="exact",
+            description=p.description,
+            unit=p.unit,
+            start=p.value,
+        )
+    end("p")
+    channels = list(CHASER_CHANNELS) + [f"joint_{i + 1}" for i in range(plant.n_arm)]
+    units = ["N"] * 3 + ["N.m"] * 3 + ["N.m"] * plant.n_arm
+    begin("u")
+    for ch, unit in zip(channels, units, strict=True):
+        add(
+            "u",
+            name=ch,
+            causality="input",
+            variability="continuous",
+            initial=None,
+            description=f"{ch}: added to the embedded excitation, held over a communication step",
+            unit=unit,
+            start=0.0,
+        )
+    end("u")
+    begin("xc")
+    for i, name in enumerate(x_names):
+        add(
+            "xc",
+            name=f"x_corr[{i + 1}]",
+            causality="input",
+            variability="discrete",
+            initial=None,
+            description=f"correction of {name}: replaces it at the start of fmi2DoStep when reset > 0.5",
+            unit=x_units[i],
+            start=float(x0[i]),
+        )
+    end("xc")
+    begin("reset")
+    add(
+        "reset",
+        name="reset",
+        causality="input",
+        variability="discrete",
+        initial=None,
+        start=0.0,
+        description="when > 0.5 at the start of fmi2DoStep, the state is replaced by x_corr",
+        unit="1",
+    )
+    end("reset")
+    begin("jreq")
+    add(
+        "jreq",
+        name="jacobian_request",
+        causality="input",
+        variability="discrete",
+        initial=None,
+        start=0.0,
+        description="when > 0.5, fmi2DoStep also computes the outputs F, g, H, h",
+        unit="1",
+    )
+    end("jreq")
+    nt = 2 * plant.nv
+    if step_jacobian:
+        begin("jac")
+        for i in range(nt):
+            for j in range(nt):
+                add(
+                    "jac",
+                    name=f"F[{i + 1},{j + 1}]",
+                    causality="output",
+                    variability="discrete",
+                    initial="calculated",
+                    description="step Jacobian d x_k+1 / d x_k (tangent coordinates)",
+                )
+        for i in range(nt):
+            add(
+                "jac",
+                name=f"g[{i + 1}]",
+                causality="output",
+                variability="discrete",
+                initial="calculated",
+                description="d x_k+1 / d target_mass (tangent coordinates)",
+            )
+        for i in range(n_z):
+            for j in range(nt):
+                add(
+                    "jac",
+                    name=f"H[{i + 1},{j + 1}]",
+                    causality="output",
+                    variability="discrete",
+                    initial="calculated",
+                    description="measurement Jacobian d z_k+1 / d x_k+1 (tangent coordinates)",
+                )
+        for i in range(n_z):
+            add(
+                "jac",
+                name=f"h[{i + 1}]",
+                causality="output",
+                variability="discrete",
+                initial="calculated",
+                description="d z_k+1 / d target_mass at fixed state",
+            )
+        end("jac")
+    return Interface(variables, blocks, nx=plant.nx, nt=nt, nz=n_z, step_jacobian=step_jacobian)

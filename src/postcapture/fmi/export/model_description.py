@@ -1,0 +1,163 @@
+"""Write the FMI 2.0 ``modelDescription.xml`` of an exported FMU.
+
+ModelStructure: every output is listed; the state outputs without ``dependencies`` (as the FMI
+Reference FMUs do), the named outputs and the state derivatives with their exact dependencies on the
+states and inputs (the sparsity of the CasADi expressions), the Jacobian outputs with none
+(``dependencies=""``: they describe the last communication step, not the current knowns).
+InitialUnknowns lists every calculated output and every state derivative.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+from postcapture.fmi.export.interface import UNITS, Interface
+
+__all__ = ["DescriptionInfo", "write_model_description"]
+
+
+@dataclass(frozen=True)
+class DescriptionInfo:
+    """Header facts of a model description."""
+
+    model_name: str
+    model_identifier: str
+    guid: str
+    description: str
+    generation_tool: str
+    directional_derivatives: bool
+    source_files: tuple[str, ...]
+    stop_time: float
+    step: float
+    integrator: str
+    variant: str
+    scenario: str
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x))
+
+
+def write_model_description(
+    interface: Interface, info: DescriptionInfo, dependencies: dict[int, list[int]]
+) -> str:
+    """The XML text.
+
+    Parameters
+    ----------
+    interface : Interface
+        The variable table.
+    info : DescriptionInfo
+        Names, GUID, capabilities and default experiment.
+    dependencies : dict of int to list of int
+        For each value reference of a state derivative or named output, the value references of the
+        knowns (states, inputs) it depends on.
+
+    Returns
+    -------
+    str
+    """
+    root = ET.Element(
+        "fmiModelDescription",
+        {
+            "fmiVersion": "2.0",
+            "modelName": info.model_name,
+            "guid": info.guid,
+            "description": info.description,
+            "generationTool": info.generation_tool,
+            "variableNamingConvention": "flat",
+            "numberOfEventIndicators": "0",
+        },
+    )
+    cs = ET.SubElement(
+        root,
+        "CoSimulation",
+        {
+            "modelIdentifier": info.model_identifier,
+            "canHandleVariableCommunicationStepSize": "true",
+            "canNotUseMemoryManagementFunctions": "true",
+            "canGetAndSetFMUstate": "true",
+            "canSerializeFMUstate": "true",
+            "providesDirectionalDerivative": "true" if info.directional_derivatives else "false",
+        },
+    )
+    files = ET.SubElement(cs, "SourceFiles")
+    for f in info.source_files:
+        ET.SubElement(files, "File", {"name": f})
+    units = ET.SubElement(root, "UnitDefinitions")
+    used = sorted({v.unit for v in interface.variables if v.unit is not None})
+    for name in used:
+        unit = ET.SubElement(units, "Unit", {"name": name})
+        ET.SubElement(unit, "BaseUnit", {k: str(e) for k, e in UNITS[name].items()})
+    cats = ET.SubElement(root, "LogCategories")
+    ET.SubElement(cats, "Category", {"name": "logStatusError", "description": "errors"})
+    ET.SubElement(cats, "Category", {"name": "logEvents", "description": "information"})
+    ET.SubElement(
+        root,
+        "DefaultExperiment",
+        {"startTime": "0.0", "stopTime": _fmt(info.stop_time), "stepSize": _fmt(info.step)},
+    )
+    vendor = ET.SubElement(root, "VendorAnnotations")
+    tool = ET.SubElement(vendor, "Tool", {"name": "postcapture"})
+    ET.SubElement(
+        tool,
+        "Plant",
+        {
+            "scenario": info.scenario,
+            "variant": info.variant,
+            "integrator": info.integrator,
+            "step": _fmt(info.step),
+            "stateCorrection": "x_corr + reset",
+            "stepJacobian": "true" if interface.step_jacobian else "false",
+        },
+    )
+    mv = ET.SubElement(root, "ModelVariables")
+    for v in interface.variables:
+        attrs = {
+            "name": v.name,
+            "valueReference": str(v.valueReference),
+            "description": v.description,
+            "causality": v.causality,
+            "variability": v.variability,
+        }
+        if v.initial is not None:
+            attrs["initial"] = v.initial
+        sv = ET.SubElement(mv, "ScalarVariable", attrs)
+        real = {}
+        if v.start is not None:
+            real["start"] = _fmt(v.start)
+        if v.unit is not None:
+            real["unit"] = v.unit
+        if v.derivative is not None:
+            real["derivative"] = str(v.derivative)
+        ET.SubElement(sv, "Real", real)
+    ms = ET.SubElement(root, "ModelStructure")
+    outputs = ET.SubElement(ms, "Outputs")
+    index = {v.valueReference: i + 1 for i, v in enumerate(interface.variables)}
+    for v in interface.variables:
+        if v.causality != "output":
+            continue
+        attrs = {"index": str(index[v.valueReference])}
+        if v.block == "y":
+            attrs["dependencies"] = " ".join(str(index[k]) for k in dependencies[v.valueReference])
+        elif v.block == "jac":
+            attrs["dependencies"] = ""
+        ET.SubElement(outputs, "Unknown", attrs)
+    ders = ET.SubElement(ms, "Derivatives")
+    for v in interface.variables:
+        if v.block == "dx":
+            ET.SubElement(
+                ders,
+                "Unknown",
+                {
+                    "index": str(index[v.valueReference]),
+                    "dependencies": " ".join(str(index[k]) for k in dependencies[v.valueReference]),
+                },
+            )
+    init = ET.SubElement(ms, "InitialUnknowns")
+    for v in interface.variables:
+        if v.block in ("dx",) or (v.causality == "output" and v.initial == "calculated"):
+            ET.SubElement(init, "Unknown", {"index": str(index[v.valueReference])})
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

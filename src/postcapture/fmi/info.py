@@ -1,0 +1,204 @@
+"""``fmu_info``: what an FMU offers (variables, capabilities) and what its mapping satisfies.
+
+Backs ``postcapture fmu info FILE.fmu``: :func:`fmu_info` returns plain data (JSON-ready) and
+:func:`format_fmu_info` the text table.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from pathlib import Path
+
+from postcapture.core.errors import FMIError
+from postcapture.fmi.mapping import Mapping, check_mapping, load_mapping
+
+__all__ = ["MAPPING_NEEDS", "fmu_info", "format_fmu_info"]
+
+MAPPING_NEEDS = (
+    ("state.variables", "the state vector x, in order (readable variables, usually outputs)"),
+    ("state.kinematics", "free_flyer (Pinocchio free flyer + joints) or quaternion (a unit q_BN in x)"),
+    ("state.attitude", "q_BN (w, x, y, z): four entries of the state"),
+    ("state.rate", "omega_BN_B (rad/s): three entries of the state"),
+    ("correction.inputs", "inputs that replace the state at the next fmi2DoStep, same order as the state"),
+    ("correction.reset", "input flag: > 0.5 at fmi2DoStep applies the correction"),
+    ("measurement.accel", "chaser acceleration at the accelerometer, B components (m/s2)"),
+    ("measurement.joint_accel", "arm joint accelerations (rad/s2)"),
+    ("parameters.mass", "tunable target-mass parameter (kg); optional"),
+    ("jacobians", "optional: request input and F, g, H, h output name patterns"),
+)
+
+_ARRAY = re.compile(r"^(.*)\[(\d+)(?:,(\d+))?\](\)?)$")
+
+
+def fmu_info(path: str | Path, mapping: str | Path | Mapping | None = None) -> dict:
+    """Describe an FMU.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.fmu`` file.
+    mapping : str, Path or Mapping, optional
+        A mapping to check; default: the embedded one or ``<fmu>.toml`` when present.
+
+    Returns
+    -------
+    dict
+        ``path``, ``fmi_version``, ``model_name``, ``guid``, ``generation_tool``, ``interfaces``,
+        ``model_identifier``, ``capabilities``, ``default_experiment``, ``variables`` (list of dicts with
+        name, valueReference, causality, variability, unit, start, description), ``counts`` (per
+        causality), ``mapping_needs`` and ``mapping`` (source, per-entry status, problems, satisfied,
+        jacobians).
+
+    Raises
+    ------
+    FMIError
+        For a missing or unreadable file.
+    """
+    from postcapture.fmi.process_model import open_model_description
+
+    md = open_model_description(path)
+    cs, me = md.coSimulation, md.modelExchange
+    interfaces = [n for n, x in (("co-simulation", cs), ("model-exchange", me)) if x is not None]
+    main = cs or me
+    variables = []
+    for v in md.modelVariables:
+        unit = v.unit if v.unit is not None else (v.declaredType.unit if v.declaredType is not None else None)
+        variables.append(
+            {
+                "name": v.name,
+                "valueReference": v.valueReference,
+                "type": v.type,
+                "causality": v.causality,
+                "variability": v.variability,
+                "unit": unit,
+                "start": v.start,
+                "description": v.description,
+            }
+        )
+    de = md.defaultExperiment
+    info = {
+        "path": str(path),
+        "fmi_version": md.fmiVersion,
+        "model_name": md.modelName,
+        "guid": md.guid,
+        "generation_tool": md.generationTool,
+        "description": md.description,
+        "interfaces": interfaces,
+        "model_identifier": main.modelIdentifier if main is not None else None,
+        "capabilities": {
+            "canGetAndSetFMUstate": bool(main and main.canGetAndSetFMUstate),
+            "canSerializeFMUstate": bool(main and main.canSerializeFMUstate),
+            "providesDirectionalDerivative": bool(main and main.providesDirectionalDerivative),
+            "canHandleVariableCommunicationStepSize": bool(cs and cs.canHandleVariableCommunicationStepSize),
+        },
+        "default_experiment": None
+        if de is None
+        else {"startTime": de.startTime, "stopTime": de.stopTime, "stepSize": de.stepSize},
+        "variables": variables,
+        "counts": dict(Counter(v["causality"] for v in variables)),
+        "mapping_needs": [{"entry": e, "meaning": m} for e, m in MAPPING_NEEDS],
+        "mapping": _mapping_status(md, path, mapping, info_cs=cs is not None),
+    }
+    return info
+
+
+def _mapping_status(md, path, mapping, info_cs: bool) -> dict:
+    names = {v.name for v in md.modelVariables}
+    try:
+        m = load_mapping(path, mapping)
+    except FMIError as exc:
+        return {"source": None, "entries": [], "problems": [str(exc)], "satisfied": False, "jacobians": None}
+    entries = [{"entry": e, "variable": n, "found": n in names} for e, n in m.entries()]
+    n_tangent = len(m.state) - 1 if m.kinematics else None
+    problems = check_mapping(m, names, str(path), n_tangent)
+    if not info_cs:
+        problems.append("the FMU has no co-simulation interface")
+    cs = md.coSimulation
+    if m.jacobians is not None:
+        jac = "outputs (exact)"
+    elif cs is not None and cs.providesDirectionalDerivative:
+        jac = "directional derivatives (discretised)"
+    elif cs is not None and cs.canGetAndSetFMUstate:
+        jac = "finite differences over FMU states"
+    else:
+        jac = "none: the filters that need Jacobians cannot run"
+    return {
+        "source": m.source,
+        "entries": entries,
+        "problems": problems,
+        "satisfied": not problems,
+        "jacobians": jac,
+    }
+
+
+def _groups(variables: list[dict]):
+    """Collapse ``name[i]`` / ``name[i,j]`` families into one row each."""
+    rows, families = [], {}
+    for v in variables:
+        m = _ARRAY.match(v["name"])
+        if m is None:
+            rows.append((v["name"], v))
+            continue
+        base, i, j, tail = m.group(1), int(m.group(2)), m.group(3), m.group(4)
+        key = (base, j is not None, v["causality"], tail)
+        fam = families.get(key)
+        if fam is None:
+            fam = families[key] = {"first": v, "count": 0, "imax": 0, "jmax": 0}
+            rows.append((key, fam))
+        fam["count"] += 1
+        fam["imax"] = max(fam["imax"], i)
+        fam["jmax"] = max(fam["jmax"], int(j) if j else 0)
+    out = []
+    for key, item in rows:
+        if isinstance(key, tuple):
+            base, two, _, tail = key
+            name = (
+                f"{base}[1..{item['imax']},1..{item['jmax']}]{tail}"
+                if two
+                else f"{base}[1..{item['imax']}]{tail}"
+            )
+            v = dict(item["first"])
+            v["description"] = f"({item['count']} variables; first: {v['description'] or ''})"
+            v["name"] = name
+            out.append(v)
+        else:
+            out.append(item)
+    return out
+
+
+def format_fmu_info(info: dict) -> str:
+    """Plain-text report of :func:`fmu_info`'s result."""
+    lines = [
+        f"{info['path']}: FMI {info['fmi_version']} {' + '.join(info['interfaces']) or 'no interface'}, "
+        f"model {info['model_name']!r} ({info['model_identifier']})"
+    ]
+    if info["generation_tool"]:
+        lines.append(f"  generated by {info['generation_tool']}")
+    caps = ", ".join(f"{k}={'yes' if v else 'no'}" for k, v in info["capabilities"].items())
+    lines.append(f"  capabilities: {caps}")
+    if info["default_experiment"]:
+        de = info["default_experiment"]
+        lines.append(
+            f"  default experiment: {de['startTime']} .. {de['stopTime']} s, step {de['stepSize']} s"
+        )
+    lines.append("  variables: " + ", ".join(f"{n} {k}" for k, n in sorted(info["counts"].items())))
+    lines.append("")
+    lines.append(f"  {'name':<32} {'causality':<10} {'variability':<11} {'unit':<10} description")
+    for v in _groups(info["variables"]):
+        lines.append(
+            f"  {v['name']:<32} {v['causality']:<10} {v['variability']:<11} {v['unit'] or '':<10} "
+            f"{(v['description'] or '')[:70]}"
+        )
+    lines.append("")
+    mp = info["mapping"]
+    if mp["source"] is None:
+        lines.append("  mapping: none found. A mapping (TOML) names:")
+        for need in info["mapping_needs"]:
+            lines.append(f"    {need['entry']:<26} {need['meaning']}")
+    else:
+        status = "satisfied" if mp["satisfied"] else "NOT satisfied"
+        lines.append(f"  mapping {mp['source']}: {status}; Jacobians from {mp['jacobians']}")
+    for p in mp["problems"]:
+        lines.append(f"    - {p}")
+    return "\n".join(lines)

@@ -1,0 +1,188 @@
+"""Tangent spaces of FMU states: box-plus / box-minus and the maps between ambient and tangent rates.
+
+A filter works on tangent (error) coordinates; an FMU exchanges ambient ones (a quaternion has four
+entries). Two layouts are supported (the mapping's ``kinematics``):
+
+``free_flyer``
+    ``x = [q (nq), v (nq - 1)]`` with ``q[:7]`` a Pinocchio free flyer (position, quaternion x y z w)
+    and Euclidean joints: tangents are Pinocchio's right perturbations, as in
+    :class:`postcapture.dynamics.process_model.NativeProcessModel` (same Lie group code).
+``quaternion``
+    Any state with a unit quaternion ``q_BN`` (scalar first) among its entries: the tangent is
+    ``[dtheta_B (3), the other entries in order]`` with ``q (+) dtheta = q exp(dtheta)``.
+
+For the directional-derivative path each layout also gives ``L(x)`` (tangent to ambient, the
+derivative of ``x (+) d`` at ``d = 0``), its left inverse ``L(x)^+`` and ``d/dt L(x(t))^+``, so that
+the tangent linearisation is ``A_t = L^+ A L + (d/dt L^+) L``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from postcapture.core.rotations import box_minus, box_plus
+
+__all__ = ["FreeFlyerKinematics", "QuaternionKinematics", "make_kinematics"]
+
+
+def _quat_matrix_xyzw(x, y, z, w) -> np.ndarray:
+    """Rotation matrix of a quaternion (x, y, z, w) (Eigen's formula, quadratic in the entries)."""
+    tx, ty, tz = 2 * x, 2 * y, 2 * z
+    twx, twy, twz = tx * w, ty * w, tz * w
+    txx, txy, txz = tx * x, ty * x, tz * x
+    tyy, tyz, tzz = ty * y, tz * y, tz * z
+    return np.array(
+        [
+            [1 - (tyy + tzz), txy - twz, txz + twy],
+            [txy + twz, 1 - (txx + tzz), tyz - twx],
+            [txz - twy, tyz + twx, 1 - (txx + tyy)],
+        ]
+    )
+
+
+def _left_xyzw(x, y, z, w) -> np.ndarray:
+    """4x3 matrix of ``d -> quat * (d, 0)`` for a quaternion stored (x, y, z, w)."""
+    return np.array([[w, -z, y], [z, w, -x], [-y, x, w], [-x, -y, -z]])
+
+
+def _left_wxyz(w, x, y, z) -> np.ndarray:
+    """4x3 matrix of ``d -> q * (0, d)`` for a quaternion stored (w, x, y, z)."""
+    return np.array([[-x, -y, -z], [w, -z, y], [z, w, -x], [-y, x, w]])
+
+
+class FreeFlyerKinematics:
+    """Pinocchio free flyer plus Euclidean joints (see the module docstring).
+
+    Parameters
+    ----------
+    nx : int
+        State size ``nq + nv`` with ``nv = nq - 1``.
+    """
+
+    name = "free_flyer"
+
+    def __init__(self, nx: int):
+        import pinocchio as pin
+
+        if nx < 13 or nx % 2 == 0:
+            raise ValueError(f"free_flyer kinematics: expected nx = 2 nq - 1 >= 13, found {nx}")
+        self.nq = (nx + 1) // 2
+        self.nv = self.nq - 1
+        self.nx, self.n = nx, 2 * self.nv
+        se3 = pin.liegroups.SE3()
+        self._group = se3 * pin.liegroups.Rn(self.nq - 7) if self.nq > 7 else se3
+        self.tangent_attitude = slice(3, 6)
+        self.tangent_rate = slice(self.nv + 3, self.nv + 6)
+
+    def retract(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """``x (+) dx``, shape (nx,)."""
+        nq, nv = self.nq, self.nv
+        return np.concatenate([self._group.integrate(x[:nq], dx[:nv]), x[nq:] + dx[nv:]])
+
+    def local(self, x1: np.ndarray, x0: np.ndarray) -> np.ndarray:
+        """``x1 (-) x0``, shape (n,)."""
+        nq = self.nq
+        return np.concatenate([self._group.difference(x0[:nq], x1[:nq]), x1[nq:] - x0[nq:]])
+
+    def basis(self, x: np.ndarray) -> np.ndarray:
+        """``L(x)`` (nx, n)."""
+        L = np.zeros((self.nx, self.n))
+        L[:3, :3] = _quat_matrix_xyzw(*x[3:7])
+        L[3:7, 3:6] = 0.5 * _left_xyzw(*x[3:7])
+        L[7:, 6:] = np.eye(self.nx - 7)
+        return L
+
+    def projector(self, x: np.ndarray) -> np.ndarray:
+        """``L(x)^+`` (n, nx)."""
+        P = np.zeros((self.n, self.nx))
+        P[:3, :3] = _quat_matrix_xyzw(*x[3:7]).T
+        P[3:6, 3:7] = 2.0 * _left_xyzw(*x[3:7]).T
+        P[6:, 7:] = np.eye(self.nx - 7)
+        return P
+
+    def projector_rate(self, x: np.ndarray, xdot: np.ndarray) -> np.ndarray:
+        """``d/dt L(x)^+`` along ``xdot`` (n, nx).
+
+        The rotation matrix is quadratic in the quaternion, so its central difference with a unit step is
+        its exact derivative.
+        """
+        D = np.zeros((self.n, self.nx))
+        qa, qd = x[3:7], xdot[3:7]
+        D[:3, :3] = 0.5 * (_quat_matrix_xyzw(*(qa + qd)) - _quat_matrix_xyzw(*(qa - qd))).T
+        D[3:6, 3:7] = 2.0 * _left_xyzw(*qd).T
+        return D
+
+
+class QuaternionKinematics:
+    """A unit quaternion ``q_BN`` (w, x, y, z at ``attitude``) in an otherwise Euclidean state.
+
+    Parameters
+    ----------
+    nx : int
+        State size.
+    attitude : sequence of 4 int
+        Indices of q_BN (w, x, y, z) in the state.
+    rate : sequence of 3 int
+        Indices of omega_BN_B in the state (contiguous and in order in the tangent).
+    """
+
+    name = "quaternion"
+
+    def __init__(self, nx: int, attitude, rate):
+        self.nx, self.n = nx, nx - 1
+        self.att = np.asarray(attitude, dtype=int)
+        self.rest = np.array([i for i in range(nx) if i not in set(self.att.tolist())], dtype=int)
+        pos = {int(i): 3 + k for k, i in enumerate(self.rest)}
+        r = [pos[int(i)] for i in rate]
+        if r != list(range(r[0], r[0] + 3)):
+            raise ValueError(
+                "quaternion kinematics: the rate entries must be consecutive and in x, y, z order"
+            )
+        self.tangent_attitude = slice(0, 3)
+        self.tangent_rate = slice(r[0], r[0] + 3)
+
+    def retract(self, x, dx):
+        """``x (+) dx``, shape (nx,)."""
+        out = np.array(x, dtype=float)
+        out[self.att] = box_plus(x[self.att], dx[:3])
+        out[self.rest] = x[self.rest] + dx[3:]
+        return out
+
+    def local(self, x1, x0):
+        """``x1 (-) x0``, shape (n,)."""
+        return np.concatenate([box_minus(x1[self.att], x0[self.att]), x1[self.rest] - x0[self.rest]])
+
+    def basis(self, x):
+        """``L(x)`` (nx, n)."""
+        L = np.zeros((self.nx, self.n))
+        L[np.ix_(self.att, range(3))] = 0.5 * _left_wxyz(*x[self.att])
+        L[self.rest, 3 + np.arange(self.rest.size)] = 1.0
+        return L
+
+    def projector(self, x):
+        """``L(x)^+`` (n, nx)."""
+        P = np.zeros((self.n, self.nx))
+        P[np.ix_(range(3), self.att)] = 2.0 * _left_wxyz(*x[self.att]).T
+        P[3 + np.arange(self.rest.size), self.rest] = 1.0
+        return P
+
+    def projector_rate(self, x, xdot):
+        """``d/dt L(x)^+`` along ``xdot`` (n, nx)."""
+        D = np.zeros((self.n, self.nx))
+        D[np.ix_(range(3), self.att)] = 2.0 * _left_wxyz(*xdot[self.att]).T
+        return D
+
+
+def make_kinematics(kind: str, nx: int, attitude, rate):
+    """The tangent layout ``kind`` of a state of size ``nx`` (indices of q_BN (w, x, y, z) and rates)."""
+    if kind == "free_flyer":
+        kin = FreeFlyerKinematics(nx)
+        if list(attitude) != [6, 3, 4, 5] or list(rate) != [kin.nq + 3, kin.nq + 4, kin.nq + 5]:
+            raise ValueError(
+                "free_flyer kinematics: attitude must be q[7], q[4], q[5], q[6] and rate v[4], v[5], v[6] "
+                "of a Pinocchio free-flyer state"
+            )
+        return kin
+    if kind == "quaternion":
+        return QuaternionKinematics(nx, attitude, rate)
+    raise ValueError(f"kinematics: expected free_flyer or quaternion, found {kind!r}")

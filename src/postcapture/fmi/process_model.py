@@ -1,0 +1,310 @@
+"""``FMUProcessModel``: the filters' ProcessModel on any FMI 2.0 / 3.0 co-simulation FMU.
+
+The loop is the reference's (thesis section 4): before ``fmi2DoStep`` the corrected state goes in
+(the mapping's correction inputs plus its reset flag, the standard-compliant way to set a state after
+initialisation), the FMU advances over ``[t, t + dt]`` with its own integrator and its known inputs,
+and the predicted state and measurement are read out. Jacobians come from the FMU's Jacobian outputs,
+else its directional derivatives, else finite differences over saved FMU states (see
+:mod:`postcapture.fmi.jacobians`). Hot calls go through preallocated buffers
+(:class:`postcapture.fmi.slave.RawSlave`).
+
+It satisfies :class:`postcapture.estimation.process.ProcessModel`.
+"""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import tempfile
+import weakref
+from pathlib import Path
+
+import numpy as np
+
+from postcapture.core.errors import DimensionError, FMIError
+from postcapture.estimation.process import Prediction
+from postcapture.fmi._extras import import_fmpy
+from postcapture.fmi.jacobians import JACOBIAN_METHODS
+from postcapture.fmi.kinematics import make_kinematics
+from postcapture.fmi.mapping import Mapping, check_mapping, load_mapping
+from postcapture.fmi.slave import Buffer, RawSlave
+
+__all__ = ["FMUProcessModel", "open_model_description"]
+
+logger = logging.getLogger(__name__)
+
+
+def open_model_description(path: str | Path):
+    """Read an FMU's model description, with typed errors for a missing file or a bad archive."""
+    fmpy = import_fmpy()
+    path = Path(path)
+    if not path.is_file():
+        raise FMIError("no such file", fmu=str(path), function="open")
+    try:
+        return fmpy.read_model_description(str(path), validate=False)
+    except Exception as exc:  # FMPy raises plain exceptions for broken archives and XML
+        raise FMIError(
+            f"cannot read modelDescription.xml: {exc}", fmu=str(path), function="read_model_description"
+        ) from exc
+
+
+def _cleanup(slave_box: list, tmpdir: str) -> None:
+    slave = slave_box[0]
+    if slave is not None:
+        slave.close()
+    shutil.rmtree(tmpdir, ignore_errors=True)
+
+
+class FMUProcessModel:
+    """A co-simulation FMU behind the ProcessModel protocol.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.fmu`` file.
+    mapping : str, Path or Mapping, optional
+        The mapping (TOML file or object); default: the FMU's embedded mapping, else ``<fmu>.toml``.
+    jacobians : {"auto", "outputs", "directional", "finite_differences"}
+        Jacobian strategy; ``auto`` takes the first one the FMU supports in that order.
+    name : str, optional
+        Label for logs and results (default: the model identifier).
+    fd_step : float
+        Tangent step of the finite differences (state units).
+    fd_mass_step : float
+        Relative mass step of the mass derivatives (finite-difference and directional strategies).
+    instance_name : str
+        FMU instance name.
+
+    Raises
+    ------
+    FMIError
+        Missing file, not a co-simulation FMU, a mapping naming variables the FMU does not have (with
+        close matches), or a failed instantiation.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        mapping: str | Path | Mapping | None = None,
+        *,
+        jacobians: str = "auto",
+        name: str | None = None,
+        fd_step: float = 1e-6,
+        fd_mass_step: float = 1e-4,
+        instance_name: str = "postcapture",
+    ):
+        if jacobians != "auto" and jacobians not in JACOBIAN_METHODS:
+            raise ValueError(
+                f"jacobians: expected auto or one of {sorted(JACOBIAN_METHODS)}, found {jacobians!r}"
+            )
+        import_fmpy()
+        from fmpy import extract
+
+        self.path = Path(path)
+        self.label = str(self.path)
+        md = open_model_description(self.path)
+        if md.coSimulation is None:
+            raise FMIError(
+                "this is a model-exchange-only FMU; a process model needs co-simulation",
+                fmu=self.label,
+                function="open",
+            )
+        self.model_description = md
+        self.mapping = load_mapping(self.path, mapping)
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        idx = {n: i for i, n in enumerate(self.mapping.state)}
+        try:
+            self.kinematics = make_kinematics(
+                self.mapping.kinematics,
+                len(self.mapping.state),
+                [idx[n] for n in self.mapping.attitude],
+                [idx[n] for n in self.mapping.rate],
+            )
+        except ValueError as exc:
+            raise FMIError(f"invalid mapping: {exc}", fmu=self.label, function="mapping") from exc
+        problems = check_mapping(self.mapping, self.vr.keys(), self.label, self.kinematics.n)
+        if problems:
+            raise FMIError(
+                "the mapping does not match the FMU:\n  - " + "\n  - ".join(problems),
+                fmu=self.label,
+                function="mapping",
+            )
+        self.name = name or md.coSimulation.modelIdentifier
+        self.fd_step, self.fd_mass_step = float(fd_step), float(fd_mass_step)
+        self.nx = len(self.mapping.state)
+        self.n = self.kinematics.n
+        self.n_meas = self.mapping.n_meas
+        self.tangent_attitude = self.kinematics.tangent_attitude
+        self.tangent_rate = self.kinematics.tangent_rate
+        self.measurement_names = list(self.mapping.accel) + list(self.mapping.joint_accel)
+        self._att = np.array([idx[n] for n in self.mapping.attitude])
+        self._rate = np.array([idx[n] for n in self.mapping.rate])
+        self.capabilities = {
+            "fmi_version": md.fmiVersion,
+            "can_get_and_set_fmu_state": bool(md.coSimulation.canGetAndSetFMUstate),
+            "provides_directional_derivative": bool(md.coSimulation.providesDirectionalDerivative),
+            "jacobian_outputs": self.mapping.jacobians is not None,
+        }
+        self._requested = jacobians
+        self._tmp = tempfile.mkdtemp(prefix="postcapture_fmu_")
+        box = [None]
+        self._finalizer = weakref.finalize(self, _cleanup, box, self._tmp)
+        self._strategy = None
+        try:
+            unzip = extract(str(self.path), self._tmp)
+            self.slave = RawSlave(md, str(unzip), self.label, instance_name)
+        except BaseException:
+            self._finalizer()  # remove the extracted files at once
+            raise
+        box[0] = self.slave
+        extra = [self.vr[self.mapping.jacobians.request]] if self.mapping.jacobians is not None else []
+        self._in = Buffer(
+            [self.vr[n] for n in self.mapping.correction] + [self.vr[self.mapping.reset]] + extra
+        )
+        self._out = Buffer(
+            [self.vr[n] for n in self.mapping.state] + [self.vr[n] for n in self.measurement_names]
+        )
+        self._x_only = Buffer([self.vr[n] for n in self.mapping.state])
+        self._mass_buf = Buffer([self.vr[self.mapping.mass]]) if self.mapping.mass is not None else None
+        self._x0 = self.slave.get_real(self._x_only).copy()
+        self._mass = (
+            float(self.slave.get_real(self._mass_buf)[0]) if self._mass_buf is not None else float("nan")
+        )
+
+    # ------------------------------------------------------------------ lifecycle
+    def close(self) -> None:
+        """Free the FMU instance and its extracted files (also done when the object is collected)."""
+        if self._strategy is not None and hasattr(self._strategy, "close"):
+            self._strategy.close(self)
+        self._finalizer()
+        self.slave = None
+
+    def __enter__(self) -> FMUProcessModel:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ Jacobian strategy
+    @property
+    def jacobian_method(self) -> str:
+        """The strategy ``predict(..., jacobians=True)`` uses (resolved on first use)."""
+        return self._resolve().name
+
+    def _resolve(self):
+        if self._strategy is not None:
+            return self._strategy
+        want = self._requested
+        if want == "auto":
+            if self.mapping.jacobians is not None:
+                want = "outputs"
+            elif (
+                self.capabilities["provides_directional_derivative"]
+                and self.state_derivative_names() is not None
+            ):
+                want = "directional"
+            else:
+                want = "finite_differences"
+        cls = JACOBIAN_METHODS[want]
+        if want == "outputs" and self.mapping.jacobians is None:
+            raise FMIError("the mapping names no Jacobian outputs", fmu=self.label, function="mapping")
+        if want == "directional" and not self.capabilities["provides_directional_derivative"]:
+            raise FMIError(
+                "the FMU does not provide directional derivatives",
+                fmu=self.label,
+                function="fmi2GetDirectionalDerivative",
+            )
+        if cls.needs_fmu_state and not self.capabilities["can_get_and_set_fmu_state"]:
+            raise FMIError(
+                "finite-difference Jacobians need to save and restore the FMU state, and this FMU "
+                "cannot (canGetAndSetFMUstate is false); it has no Jacobian outputs or directional "
+                "derivatives either",
+                fmu=self.label,
+                function="fmi2GetFMUstate",
+            )
+        self._strategy = cls(self)
+        return self._strategy
+
+    def state_derivative_names(self) -> list[str] | None:
+        """Names of the derivatives of the state variables (ModelStructure/Derivatives), or None."""
+        by_state = {}
+        for v in self.model_description.modelVariables:
+            if v.derivative is not None:
+                by_state[v.derivative.name] = v.name
+        names = [by_state.get(n) for n in self.mapping.state]
+        return None if any(n is None for n in names) else names
+
+    # ------------------------------------------------------------------ protocol
+    @property
+    def mass(self) -> float:
+        """Target mass used by the FMU (kg)."""
+        return self._mass
+
+    @mass.setter
+    def mass(self, value: float) -> None:
+        if self._mass_buf is None:
+            raise AttributeError("the mapping names no mass parameter")
+        self._mass_buf.values[0] = float(value)
+        self.slave.set_real(self._mass_buf)
+        self._mass = float(value)
+
+    def initial_state(self) -> np.ndarray:
+        """The FMU's state after initialisation (its start values), shape (nx,)."""
+        return self._x0.copy()
+
+    def _raw_step(self, x: np.ndarray, t: float, dt: float, request: bool = False):
+        vals = self._in.values
+        vals[: self.nx] = x
+        vals[self.nx] = 1.0
+        if self._in.n > self.nx + 1:
+            vals[self.nx + 1] = 1.0 if request else 0.0
+        self.slave.set_real(self._in)
+        self.slave.do_step(t, dt)
+        out = self.slave.get_real(self._out)
+        return out[: self.nx].copy(), out[self.nx :].copy()
+
+    def predict(self, x, t: float, dt: float, jacobians: bool = False):
+        """Advance ``x`` (nx,) from ``t`` to ``t + dt`` (s) and predict the measurement there.
+
+        Returns
+        -------
+        Prediction
+            ``x`` (nx,), ``z`` (n_meas,) and, with ``jacobians=True``, ``F`` (n, n), ``g`` (n,),
+            ``H`` (n_meas, n), ``h`` (n_meas,) in tangent coordinates.
+
+        Raises
+        ------
+        FMIError
+            When a call fails (``fmi2DoStep`` returning Discard or Error, ...).
+        """
+        if self.slave is None:
+            raise FMIError("the process model is closed", fmu=self.label, function="predict")
+        x = np.asarray(x, dtype=float)
+        if x.shape != (self.nx,):
+            raise DimensionError(f"x: expected shape ({self.nx},), found {x.shape}")
+        if not jacobians:
+            x1, z = self._raw_step(x, t, dt)
+            return Prediction(x1, z)
+        strategy = self._resolve()
+        if strategy.needs_fmu_state:
+            strategy.save_before(self)
+        x1, z = self._raw_step(x, t, dt, request=strategy.uses_request)
+        F, g, H, h = strategy.compute(self, x, t, dt, x1, z)
+        return Prediction(x1, z, F, g, H, h)
+
+    def retract(self, x, dx) -> np.ndarray:
+        """``x (+) dx`` (box-plus), shape (nx,)."""
+        return self.kinematics.retract(np.asarray(x, dtype=float), np.asarray(dx, dtype=float))
+
+    def local(self, x1, x0) -> np.ndarray:
+        """``x1 (-) x0`` (box-minus), shape (n,)."""
+        return self.kinematics.local(np.asarray(x1, dtype=float), np.asarray(x0, dtype=float))
+
+    def attitude(self, x) -> np.ndarray:
+        """Chaser attitude ``q_BN`` (w, x, y, z), ``w >= 0``."""
+        q = np.asarray(x, dtype=float)[self._att]
+        return -q if q[0] < 0 else q
+
+    def body_rate(self, x) -> np.ndarray:
+        """Chaser body rate ``omega_BN_B`` (rad/s)."""
+        return np.asarray(x, dtype=float)[self._rate]

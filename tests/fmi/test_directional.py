@@ -1,0 +1,123 @@
+"""fmi2GetDirectionalDerivative against central finite differences of the FMU's own outputs.
+
+Knowns: the states (set at the same time through a re-initialisation, where states with
+``initial="exact"`` may be set) and the inputs (set in step mode); unknowns: the state derivatives and
+the named outputs.
+"""
+
+import numpy as np
+import pytest
+
+import fmpy
+
+from fmpy.fmi2 import FMU2Slave  # noqa: E402
+
+T = 15.0  # s: joint sines on, thrusters off
+
+
+@pytest.fixture(scope="module")
+def setup(envisat_fmu, tmp_path_factory):
+    md = fmpy.read_model_description(str(envisat_fmu.path))
+    unzip = fmpy.extract(str(envisat_fmu.path), str(tmp_path_factory.mktemp("dd")))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    for k in range(int(round(T / 0.1))):
+        fmu.doStep(k * 0.1, 0.1)
+    vars_ = md.modelVariables
+    states = [v.valueReference for v in vars_ if v.name.startswith(("q[", "v["))]
+    inputs = [v.valueReference for v in vars_ if v.causality == "input" and v.variability == "continuous"]
+    unknowns = [v.valueReference for v in vars_ if v.name.startswith("der(")] + [
+        v.valueReference
+        for v in vars_
+        if v.causality == "output" and v.variability == "continuous" and not v.name.startswith(("q[", "v["))
+    ]
+    x = np.array(fmu.getReal(states))
+    yield fmu, states, inputs, unknowns, x
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def _outputs_at(fmu, states, unknowns, x):
+    """Unknowns at state ``x`` and time ``T`` through a re-initialisation."""
+    fmu.reset()
+    fmu.setupExperiment(startTime=T)
+    fmu.enterInitializationMode()
+    fmu.setReal(states, list(x))
+    fmu.exitInitializationMode()
+    return np.array(fmu.getReal(unknowns))
+
+
+def _check(J_dd, J_fd, labels):
+    for j in range(J_fd.shape[1]):
+        scale = np.abs(J_fd[:, j]).max()
+        err = np.abs(J_dd[:, j] - J_fd[:, j]).max()
+        if scale == 0.0:
+            assert err <= 1e-12, labels[j]
+        else:
+            assert err <= 1e-6 * scale, (labels[j], err / scale)
+
+
+def test_state_columns(setup):
+    fmu, states, _inputs, unknowns, x = setup
+    base = _outputs_at(fmu, states, unknowns, x)
+    J_dd = np.array(
+        [
+            fmu.getDirectionalDerivative(unknowns, states, list(np.eye(len(states))[j]))
+            for j in range(len(states))
+        ]
+    ).T
+    J_fd = np.zeros_like(J_dd)
+    for j in range(len(states)):
+        eps = 1e-6 * max(1.0, abs(x[j]))
+        xp, xm = x.copy(), x.copy()
+        xp[j] += eps
+        xm[j] -= eps
+        J_fd[:, j] = (_outputs_at(fmu, states, unknowns, xp) - _outputs_at(fmu, states, unknowns, xm)) / (
+            2 * eps
+        )
+    _check(J_dd, J_fd, [f"state {j}" for j in range(len(states))])
+    np.testing.assert_array_equal(_outputs_at(fmu, states, unknowns, x), base)
+
+
+def test_input_columns(setup):
+    fmu, states, inputs, unknowns, x = setup
+    _outputs_at(fmu, states, unknowns, x)  # back to step mode at (x, T)
+    J_dd = np.array(
+        [
+            fmu.getDirectionalDerivative(unknowns, inputs, list(np.eye(len(inputs))[j]))
+            for j in range(len(inputs))
+        ]
+    ).T
+    J_fd = np.zeros_like(J_dd)
+    for j, vr in enumerate(inputs):
+        vals = []
+        for du in (1e-3, -1e-3):
+            fmu.setReal([vr], [du])
+            vals.append(np.array(fmu.getReal(unknowns)))
+        fmu.setReal([vr], [0.0])
+        J_fd[:, j] = (vals[0] - vals[1]) / 2e-3
+    _check(J_dd, J_fd, [f"input {j}" for j in range(len(inputs))])
+
+
+def test_directional_derivative_errors(setup):
+    fmu, states, _inputs, unknowns, _x = setup
+    with pytest.raises(fmpy.fmi1.FMICallException):
+        fmu.getDirectionalDerivative(unknowns[:1], [10**6], [1.0])  # not a state or input
+
+
+def test_switched_off_in_the_plain_export(rigid_plain_fmu, tmp_path):
+    md = fmpy.read_model_description(str(rigid_plain_fmu.path))
+    unzip = fmpy.extract(str(rigid_plain_fmu.path), str(tmp_path / "plain"))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    with pytest.raises(fmpy.fmi1.FMICallException, match="fmi2GetDirectionalDerivative"):
+        fmu.getDirectionalDerivative([vr["der(v[1])"]], [vr["v[1]"]], [1.0])
+    fmu.terminate()
+    fmu.freeInstance()
