@@ -20,8 +20,7 @@ def test_seeds_give_independent_noise_and_a_summary(envisat):
 @pytest.mark.slow
 def test_fifty_seed_consistency_of_ekf_and_mekf(envisat):
     """Over 50 seeds of sensor noise on one truth, the mean attitude NEES lies in the 95 % band."""
-    res = monte_carlo(envisat, profile="realistic", cases=("ekf_flexible", "mekf_flexible"), seeds=range(50),
-                      duration=100.0)
+    res = monte_carlo(envisat, profile="realistic", cases=("ekf_flexible", "mekf_flexible"), seeds=range(50))
     s = res.summary()
     lo, hi = s["nees_band_95"]
     for name in ("ekf_flexible", "mekf_flexible"):

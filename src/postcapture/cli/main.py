@@ -6,14 +6,13 @@ User errors (bad scenario, missing file, bad option) print one message on stderr
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import sys
 
-from postcapture.core.errors import Problem, ScenarioError
+from postcapture.cli import commands
 
-__all__ = ["main"]
+__all__ = ["main", "build_parser"]
 
 EXAMPLES = """examples:
   postcapture run --out results                      # the main job on the embedded Envisat scenario
@@ -34,153 +33,6 @@ def _single_threaded() -> None:
         os.environ.setdefault(var, "1")
 
 
-def _progress_bar(desc: str):
-    """A tqdm bar on stderr (hidden when stderr is not a terminal) and a fraction callback."""
-    from tqdm import tqdm
-
-    bar = tqdm(total=1000, desc=desc, unit="‰", disable=None, file=sys.stderr, leave=False)
-
-    def update(fraction: float) -> None:
-        target = int(round(fraction * 1000))
-        if target > bar.n:
-            bar.update(target - bar.n)
-
-    return bar, update
-
-
-def _print_json(obj) -> None:
-    print(json.dumps(obj, indent=2, default=float))
-
-
-# ---------------------------------------------------------------------------------------- commands
-def _cmd_simulate(args) -> int:
-    from postcapture.config import load_scenario
-    from postcapture.dynamics.simulate import drift_metrics, simulate
-
-    scenario = load_scenario(args.scenario)
-    bar, update = _progress_bar("simulate")
-    with bar:
-        traj = simulate(
-            scenario,
-            variant=args.variant,
-            duration=args.duration,
-            panel_segments=args.panel_segments,
-            damping=not args.undamped,
-            excitation=not args.free,
-            integrator=args.integrator,
-            step=args.step,
-            progress=update,
-        )
-    out = args.out or f"results/simulate_{scenario.name}_{args.variant}.nc"
-    traj.to_netcdf(out)
-    wall = traj.attrs["wall_s"]
-    duration = float(traj.t[-1] - traj.t[0])
-    summary = {
-        "scenario": scenario.name,
-        "variant": args.variant,
-        "duration_s": duration,
-        "wall_s": wall,
-        "real_time_factor": duration / wall if wall > 0 else float("inf"),
-        "n_dof": int(traj.attrs["nv"]),
-        "panel_segments": traj.attrs["panel_segments"],
-        "integrator": traj.attrs["integrator"],
-        "step_s": traj.attrs["step_s"],
-        **drift_metrics(traj),
-        "out": str(out),
-    }
-    if args.json:
-        _print_json(summary)
-    else:
-        print(f"simulated {duration:g} s of '{scenario.name}' ({args.variant}, {summary['n_dof']} DoF, "
-              f"{summary['integrator']} h = {summary['step_s']:g} s) in {wall:.2f} s: "
-              f"{summary['real_time_factor']:.1f}x real time")
-        print(f"energy balance drift {summary['energy_drift_rel']:.2e}, "
-              f"angular momentum balance drift {summary['angular_momentum_drift_rel']:.2e}")
-        print(f"trajectory written to {out}")
-    return 0
-
-
-def _cmd_run(args) -> int:
-    from postcapture.campaign.main_job import run_main_job
-    from postcapture.campaign.results import write_results
-    from postcapture.config import load_scenario
-    from postcapture.report.estimation import results_table
-
-    scenario = load_scenario(args.scenario)
-    plant = args.plant
-    cases = args.cases
-    if plant != "native":
-        if not plant.startswith("fmu:") or not plant[4:]:
-            raise ScenarioError([Problem("--plant", "native or fmu:FILE.fmu", repr(plant))])
-        if cases is None:  # an FMU is one plant: run the cases meant for the flexible model
-            cases = ("ekf_flexible", "mekf_flexible", "joint_flexible")
-    bar, update = _progress_bar("run")
-    with bar:
-        result = run_main_job(
-            scenario,
-            profile=args.profile,
-            duration=args.duration,
-            cases=cases or ("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff", "joint_flexible"),
-            plant=plant,
-            mapping=args.map,
-            initial_mass_error=args.initial_mass_error,
-            seed=args.seed,
-            workers=args.workers,
-            crlb=not args.no_crlb,
-            progress=lambda msg, frac: (bar.set_description(f"run: {msg}"), update(frac)),
-        )
-    paths = write_results(result, args.out, figures=not args.no_plots)
-    summary = result.summary()
-    if args.json:
-        _print_json(summary)
-    else:
-        print(results_table(summary))
-        print(f"results written to {args.out}/ ({', '.join(sorted(p.name for p in paths.values()))})")
-    return 0
-
-
-def _cmd_fmu_export(args) -> int:
-    from postcapture.config import load_scenario
-    from postcapture.fmi import export_fmu
-
-    scenario = load_scenario(args.scenario)
-    if args.fmi != 2:
-        raise ScenarioError([Problem("--fmi", "2 (FMI 3.0 export is not implemented yet)", str(args.fmi))])
-
-    def progress(msg, *rest):
-        if not args.json:
-            print(f"  ... {msg}", file=sys.stderr)
-
-    report = export_fmu(scenario, args.output, variant=args.variant, fmi_version=args.fmi,
-                        directional_derivatives=not args.no_directional, step_jacobian=not args.no_step_jacobian,
-                        panel_segments=args.panel_segments, progress=progress)
-    info = {
-        "fmu": str(report.path), "mapping": str(report.mapping_path), "fmi_version": report.fmi_version,
-        "variant": report.variant, "integrator": report.integrator, "step_s": report.step,
-        "n_states": report.n_states, "n_variables": report.n_variables, "wall_s": report.seconds,
-        "codegen_s": report.seconds_codegen, "compile_s": report.seconds_compile,
-        "directional_derivatives": report.directional_derivatives, "step_jacobian": report.step_jacobian,
-    }
-    if args.json:
-        _print_json(info)
-    else:
-        print(f"exported {info['fmu']} (FMI {info['fmi_version']} co-simulation, {info['variant']}, "
-              f"{info['n_states']} states, {info['n_variables']} variables) in {info['wall_s']:.1f} s; "
-              f"mapping {info['mapping']}")
-    return 0
-
-
-def _cmd_fmu_info(args) -> int:
-    from postcapture.fmi import fmu_info, format_fmu_info
-
-    info = fmu_info(args.fmu, mapping=args.map)
-    if args.json:
-        _print_json(info)
-    else:
-        print(format_fmu_info(info))
-    return 0
-
-
 def _cases(text: str) -> tuple[str, ...]:
     from postcapture.campaign.cases import CASES
 
@@ -189,83 +41,6 @@ def _cases(text: str) -> tuple[str, ...]:
     if not names or bad:
         raise argparse.ArgumentTypeError(f"expected case names among {', '.join(CASES)}, found {text!r}")
     return names
-
-
-def _cmd_modes(args) -> int:
-    from postcapture.config import load_scenario
-    from postcapture.dynamics.build import build_system
-    from postcapture.dynamics.modes import structural_modes
-
-    scenario = load_scenario(args.scenario)
-    system = build_system(scenario, args.variant, panel_segments=args.panel_segments)
-    modes = structural_modes(system)[: args.count]
-    rows = [
-        {
-            "mode": i + 1,
-            "frequency_hz": m.frequency_hz,
-            "damping_ratio": m.damping_ratio,
-            "dominant": m.dominant,
-            "strain_energy_share": {k: v for k, v in m.energy_share.items() if v >= 0.01},
-        }
-        for i, m in enumerate(modes)
-    ]
-    if args.json:
-        _print_json({"scenario": scenario.name, "variant": args.variant, "n_dof": system.nv, "modes": rows})
-        return 0
-    print(f"elastic modes of '{scenario.name}' ({args.variant}, {system.nv} DoF) at rest; "
-          "share = strain energy held by each group")
-    print(f"{'#':>3} {'f (Hz)':>10} {'zeta':>7}  what moves")
-    for r in rows:
-        share = ", ".join(f"{k} {v:.0%}" for k, v in sorted(r["strain_energy_share"].items(), key=lambda kv: -kv[1]))
-        print(f"{r['mode']:>3} {r['frequency_hz']:>10.4f} {r['damping_ratio']:>7.4f}  {share}")
-    return 0
-
-
-def _cmd_bench(args) -> int:
-    if args.accuracy:
-        return _cmd_accuracy(args)
-    from postcapture.campaign.bench import run_benchmark
-
-    bar_msgs = []
-
-    def progress(msg: str) -> None:
-        bar_msgs.append(msg)
-        if not args.json:
-            print(f"  ... {msg}", file=sys.stderr)
-
-    result = run_benchmark(args.scenario, duration=args.duration, progress=progress)
-    if args.json:
-        _print_json(result)
-        return 0
-    print(f"truth simulation, {result['integrator']} h = {result['step_s']} s, outputs every {result['sample_period_s']} s:")
-    for n in (5, 20, 50):
-        print(f"  N = {n:>2} panel segments ({result[f'n_dof_n{n}']} DoF): {result[f'rtf_n{n}']:.1f}x real time")
-    print(f"  exact step Jacobian at N = 5: {result['step_jacobian_ms_n5']:.2f} ms")
-    print(f"  model build at N = 50: {result['build_s_n50'] * 1e3:.1f} ms")
-    m = result["machine"]
-    print(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, Pinocchio {m['pinocchio']}")
-    return 0
-
-
-def _cmd_accuracy(args) -> int:
-    from postcapture.campaign.accuracy import integrator_accuracy
-
-    def progress(msg: str) -> None:
-        if not args.json:
-            print(f"  ... {msg}", file=sys.stderr)
-
-    result = integrator_accuracy(args.scenario, duration=args.duration if args.duration != 60.0 else 40.0, progress=progress)
-    if args.json:
-        _print_json(result)
-        return 0
-    print(f"largest deviation from {result['reference']} over {result['duration_s']:g} s")
-    for label in ("forced", "free"):
-        print(f"  {label}:")
-        print(f"    {'method':<18}{'attitude':>12}{'rate':>11}{'tip':>10}{'accel':>10}{'arm ddq':>10}{'wall':>8}")
-        for name, r in result[label].items():
-            print(f"    {name:<18}{r['attitude_arcsec']:>9.3g} as{r['rate_rad_s']:>11.2e}{r['tip_rel']:>10.2e}"
-                  f"{r['accel_rel']:>10.2e}{r['arm_ddq_rel']:>10.2e}{r['wall_s']:>7.1f}s")
-    return 0
 
 
 def _weights(text: str) -> tuple[float, ...]:
@@ -278,28 +53,6 @@ def _weights(text: str) -> tuple[float, ...]:
     return values
 
 
-def _cmd_panel_calibrate(args) -> int:
-    from postcapture.panels import calibrate
-    from postcapture.report.panels import calibration_figures
-
-    def progress(done, total, message):
-        if not args.json:
-            print(f"  [{done}/{total}] {message}", file=sys.stderr)
-
-    result = calibrate(args.panel, segments=args.segments, weights=args.weights, reference=args.reference,
-                       progress=progress)
-    if args.out:
-        result.write(args.out, figures=calibration_figures)
-    if args.json:
-        print(result.to_json())
-    else:
-        print(result.tables())
-        if args.out:
-            print(f"tables, JSON, TOML fragment and figures written to {args.out}")
-    return 0
-
-
-# ---------------------------------------------------------------------------------------- parser
 def _positive_float(text: str) -> float:
     try:
         value = float(text)
@@ -365,7 +118,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--out", default="results", metavar="DIR", help="results folder (default: results)")
     p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
-    p.set_defaults(func=_cmd_run)
+    p.set_defaults(func=commands.cmd_run)
 
     p = sub.add_parser("simulate", help="truth simulation to a NetCDF file")
     scenario_args(p)
@@ -376,13 +129,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--free", action="store_true", help="no excitation inputs")
     p.add_argument("--out", default=None, metavar="FILE", help="NetCDF output (default: results/simulate_<scenario>_<variant>.nc)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
-    p.set_defaults(func=_cmd_simulate)
+    p.set_defaults(func=commands.cmd_simulate)
 
     p = sub.add_parser("modes", help="natural frequencies and what moves in each mode")
     scenario_args(p)
     p.add_argument("--count", type=_positive_int, default=20, help="number of modes to list (default 20)")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=_cmd_modes)
+    p.set_defaults(func=commands.cmd_modes)
 
     p = sub.add_parser("panel", help="panel models: calibrate the lumped chain against a plate FEM")
     panel_sub = p.add_subparsers(dest="panel_command", required=True, parser_class=_Parser)
@@ -395,7 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the built-in plate FEM, or modes read from a Nastran OP2 file")
     c.add_argument("--out", default=None, metavar="DIR", help="write tables, JSON, a TOML fragment and figures here")
     c.add_argument("--json", action="store_true")
-    c.set_defaults(func=_cmd_panel_calibrate)
+    c.set_defaults(func=commands.cmd_panel_calibrate)
 
     p = sub.add_parser("fmu", help="FMI: export the plant as a co-simulation FMU, inspect an FMU")
     fmu_sub = p.add_subparsers(dest="fmu_command", required=True, parser_class=_Parser)
@@ -408,12 +161,12 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--no-step-jacobian", action="store_true", help="without the exact step-Jacobian outputs")
     c.add_argument("-o", "--output", required=True, metavar="FILE.fmu")
     c.add_argument("--json", action="store_true")
-    c.set_defaults(func=_cmd_fmu_export)
+    c.set_defaults(func=commands.cmd_fmu_export)
     c = fmu_sub.add_parser("info", help="variables, capabilities and what a filter mapping needs")
     c.add_argument("fmu", metavar="FILE.fmu")
     c.add_argument("--map", default=None, metavar="MAP.toml")
     c.add_argument("--json", action="store_true")
-    c.set_defaults(func=_cmd_fmu_info)
+    c.set_defaults(func=commands.cmd_fmu_info)
 
     p = sub.add_parser("bench", help="speed benchmark (real-time factors, step Jacobian, build time)")
     p.add_argument("--scenario", default="envisat")
@@ -421,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--accuracy", action="store_true",
                    help="instead: integrator accuracy against RK4 at 0.25 ms (40 s forced and free; minutes)")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=_cmd_bench)
+    p.set_defaults(func=commands.cmd_bench)
     return parser
 
 
