@@ -30,8 +30,8 @@ def results_table(summary: dict) -> str:
         f"{summary['duration_s']:g} s; "
         f"true mass {summary['true_mass_kg']:.1f} kg, filters start at {summary['initial_mass_kg']:.1f} kg",
         f"{'case':<22}{'mass err':>10}{'3 sigma':>9}{'1% at':>8}{'0.1% at':>9}{'att RMS':>10}{'steady':>9}"
-        f"{'in 3s':>7}{'NEES':>7}{'NIS':>6}{'wall':>7}",
-        f"{'':<22}{'(kg)':>10}{'(kg)':>9}{'(s)':>8}{'(s)':>9}{'(arcsec)':>10}{'(arcsec)':>9}{'':>7}{'(3)':>7}{'(3)':>6}{'(s)':>7}",
+        f"{'in 3s':>7}{'NEES':>9}{'NIS':>6}{'wall':>7}",
+        f"{'':<22}{'(kg)':>10}{'(kg)':>9}{'(s)':>8}{'(s)':>9}{'(arcsec)':>10}{'(arcsec)':>9}{'':>7}{'(3)':>9}{'(3)':>6}{'(s)':>7}",
     ]
     for name, m in summary["cases"].items():
         note = "" if m.get("success", True) else f"   {m.get('message', 'diverged')}"
@@ -40,7 +40,7 @@ def results_table(summary: dict) -> str:
             f"{name:<22}{_fmt(m['mass_error_kg'], '.2f', '-'):>10}{_fmt(three_sigma, '.2f', '-'):>9}"
             f"{_fmt(m['settle_1pct_s'], '.1f'):>8}{_fmt(m['settle_01pct_s'], '.1f'):>9}"
             f"{_fmt(m['attitude_rms_arcsec'], '.3g', '-'):>10}{_fmt(m['attitude_rms_steady_arcsec'], '.3g', '-'):>9}"
-            f"{_fmt(m['inside_3sigma'], '.1%', '-'):>7}{_fmt(m['nees_mean'], '.2f', '-'):>7}"
+            f"{_fmt(m['inside_3sigma'], '.1%', '-'):>7}{_fmt(m['nees_mean'], '.3g', '-'):>9}"
             f"{_fmt(m['nis_mean'], '.2f', '-'):>6}{m['wall_s']:>7.1f}{note}"
         )
     crlb = summary.get("crlb_mass_kg")
