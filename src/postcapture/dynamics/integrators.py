@@ -246,7 +246,12 @@ class LieRungeKutta:
                 hg = h * g
                 if i == 0 and (refresh or self._lu is None or self._lu[3] != hg or self._lu_age >= self.reuse_jacobian):
                     self._newton_matrix(q, v, sysm.input_vector(t, u_extra), hg)
-                if i:  # predictor: continue with the previous stage's slopes
+                if fsal is not None and len(fsal[2]) > i:
+                    # the same stage of the previous step, shifted by how the step's start moved: the stiff,
+                    # quasi-static coordinates change smoothly from step to step, unlike along the stages
+                    V0 = fsal[2][i] + (v - fsal[3])
+                    xi0 = xi_bar + hg * V0
+                elif i:  # continue with the previous stage's slopes
                     xi0, V0 = xi_bar + hg * Kxi[i - 1], V_bar + hg * Kv[i - 1]
                 elif fsal is not None:  # the previous step's last slope
                     xi0, V0 = hg * v, v + hg * fsal[1]
@@ -263,6 +268,7 @@ class LieRungeKutta:
             b = self.tableau.b
             xi_end = h * sum(b[i] * Kxi[i] for i in range(self._s))
             v_end = v + h * sum(b[i] * Kv[i] for i in range(self._s))
+        self._last_Z, self._last_v = Z, v
         if self._lu is not None:
             self._lu_age += 1
             if self._max_it > 4:  # slow convergence: refresh at the next step
@@ -274,7 +280,7 @@ class LieRungeKutta:
         q1 = pin.integrate(self.system.model, q, xi_end)
         if not (np.isfinite(q1).all() and np.isfinite(v_end).all()):
             raise SimulationError(f"{self.tableau.name}: non-finite state after the step at t = {t:.6g} s")
-        self._fsal = (q1, Kv[-1]) if self._stiffly_accurate else None
+        self._fsal = (q1, Kv[-1], [Z_i[1] for Z_i in self._last_Z], self._last_v) if self._stiffly_accurate else None
         return q1
 
     def step(self, q: np.ndarray, v: np.ndarray, t: float, h: float, u_extra=None, refresh: bool = False):
