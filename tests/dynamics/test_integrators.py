@@ -7,7 +7,6 @@ Lie-group RK4 without the Munthe-Kaas correction of its stages would show order 
 import numpy as np
 import pytest
 
-from postcapture.core.rotations import box_minus
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.integrators import TABLEAUX, make_integrator
 

@@ -4,7 +4,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-import casadi as ca
+import casadi as ca  # noqa: F401 - the fmi extra is part of the test install
 
 from postcapture.dynamics.assembly import assemble  # noqa: E402
 from postcapture.dynamics.build import build_system  # noqa: E402

@@ -1,6 +1,5 @@
 """Hot calls go through preallocated buffers, and predict costs less than the native model's."""
 
-import pytest
 
 import fmpy  # noqa: F401 - the fmi extra is part of the test install
 

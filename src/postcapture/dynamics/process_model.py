@@ -28,7 +28,7 @@ def measurement_jacobian(system: System, q, v, t: float, r_acc: np.ndarray, arm_
     nv = system.nv
     u = system.input_vector(t)
     ddq, Aq, Av, Minv = system.derivatives_u(q, v, u)
-    w, vl, wd = v[3:6], v[:3], ddq[3:6]
+    w, vl = v[3:6], v[:3]
     z = np.concatenate([accelerometer_reading(v, ddq, r_acc), ddq[arm_v]])
     # accel = ddq[:3] + w x vl + wd x r + w x (w x r)
     J_ddq = np.hstack([np.eye(3), -skew(r_acc)])  # d accel / d ddq[0:6]

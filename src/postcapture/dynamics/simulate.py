@@ -14,10 +14,8 @@ import time as _time
 from collections.abc import Callable
 
 import numpy as np
-import pinocchio as pin
 
 from postcapture.config.schema import Scenario
-from postcapture.core.rotations import cross3
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.integrators import make_integrator
 from postcapture.dynamics.outputs import OutputRecorder
