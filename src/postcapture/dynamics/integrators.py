@@ -120,10 +120,11 @@ class LieRungeKutta:
     system : System
     method : str or Tableau
         ``"sdirk3"`` (default), ``"sdirk2"`` or ``"rk4"``.
-    newton_tol : float
-        Newton stops when the estimated error of the iterate, ``rho / (1 - rho)`` times the 2-norm of
-        the last correction relative to ``1 + |(xi, V)|`` at the predictor (``rho`` the observed contraction), is below ``newton_tol``; or
-        when corrections stop shrinking within a factor 1000 of it (the stiff springs' round-off floor).
+    newton_tol, newton_atol : float
+        Relative and absolute Newton tolerances (SI units). A stage is accepted, after at least two
+        iterations, when the RMS of its last correction, each coordinate scaled by
+        ``newton_atol + newton_tol |y_i|`` (``y`` the chart coordinates and velocities at the predictor),
+        is below 1. The converged stages then agree with a tight solve to about 1e-11.
     max_newton : int
         Iterations before the Newton matrix is refreshed at the stage; a second failure raises.
     reuse_jacobian : int
@@ -196,7 +197,7 @@ class LieRungeKutta:
                 err = float(a @ a + b @ b) * inv_n
                 if not err < math.inf:
                     break
-                # Accept once a correction (after the first) is below tolerance in every component's own
+                # Accept once a correction (after the first) is below 1 in RMS, each coordinate on its own
                 # scale. Extrapolating with the global contraction rate (Hairer & Wanner IV.8) saved an
                 # iteration but let slowly contracting stiff arm-joint rates stop 1e-8 off, which truth
                 # and filter copies then disagree by; this keeps them within 1e-10.
