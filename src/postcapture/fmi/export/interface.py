@@ -234,43 +234,18 @@ def build_interface(
     nt = 2 * plant.nv
     if step_jacobian:
         begin("jac")
-        for i in range(nt):
-            for j in range(nt):
-                add(
-                    "jac",
-                    name=f"F[{i + 1},{j + 1}]",
-                    causality="output",
-                    variability="discrete",
-                    initial="calculated",
-                    description="step Jacobian d x_k+1 / d x_k (tangent coordinates)",
-                )
-        for i in range(nt):
-            add(
-                "jac",
-                name=f"g[{i + 1}]",
-                causality="output",
-                variability="discrete",
-                initial="calculated",
-                description="d x_k+1 / d target_mass (tangent coordinates)",
-            )
-        for i in range(n_z):
-            for j in range(nt):
-                add(
-                    "jac",
-                    name=f"H[{i + 1},{j + 1}]",
-                    causality="output",
-                    variability="discrete",
-                    initial="calculated",
-                    description="measurement Jacobian d z_k+1 / d x_k+1 (tangent coordinates)",
-                )
-        for i in range(n_z):
-            add(
-                "jac",
-                name=f"h[{i + 1}]",
-                causality="output",
-                variability="discrete",
-                initial="calculated",
-                description="d z_k+1 / d target_mass at fixed state",
-            )
+
+        def outputs(symbol: str, rows: int, cols: int | None, description: str) -> None:
+            """Discrete outputs ``symbol[i,j]`` (or ``symbol[i]``), row by row."""
+            for i in range(rows):
+                for j in range(cols or 1):
+                    name = f"{symbol}[{i + 1},{j + 1}]" if cols else f"{symbol}[{i + 1}]"
+                    add("jac", name=name, causality="output", variability="discrete", initial="calculated",
+                        description=description)
+
+        outputs("F", nt, nt, "step Jacobian d x_k+1 / d x_k (tangent coordinates)")
+        outputs("g", nt, None, "d x_k+1 / d target_mass (tangent coordinates)")
+        outputs("H", n_z, nt, "measurement Jacobian d z_k+1 / d x_k+1 (tangent coordinates)")
+        outputs("h", n_z, None, "d z_k+1 / d target_mass at fixed state")
         end("jac")
     return Interface(variables, blocks, nx=plant.nx, nt=nt, nz=n_z, step_jacobian=step_jacobian)
