@@ -7,16 +7,15 @@ worker processes. The Cramer-Rao bound of the mass is computed on the same traje
 
 from __future__ import annotations
 
-import multiprocessing
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from postcapture.campaign.cases import CASES, DEFAULT_CASES, attitude_P0, dual_config, gyro_sample_sigma, joint_tuning
 from postcapture.campaign.metrics import ARCSEC, case_metrics
+from postcapture.campaign.pool import run_jobs
 from postcapture.campaign.sensing import measure_all, resolve_profile
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
@@ -92,7 +91,7 @@ class MainJobResult:
         }
 
 
-def _run_case(job: dict):
+def _run_case(job: dict, progress=None):
     """Worker: build the case's own plant copy and run its filter (top level, so it pickles)."""
     from postcapture.estimation.dual import run_dual
     from postcapture.estimation.joint import run_joint
@@ -115,7 +114,8 @@ def _run_case(job: dict):
         else:  # another tool's FMU: its own start values, no initial sensitivity
             x0, S0 = model.initial_state(), np.zeros(model.n)
     q0 = rot.box_plus(job["q_true0"], job["dq0"])
-    kwargs = dict(x0=x0, theta0=job["theta0"], t_grid=job["t_grid"], S0=S0, q0_BN=q0, raise_on_divergence=False)
+    kwargs = dict(x0=x0, theta0=job["theta0"], t_grid=job["t_grid"], S0=S0, q0_BN=q0, raise_on_divergence=False,
+                  progress=progress)
     if spec.scheme == "dual":
         cfg = dual_config(spec, job["profile"], job["profile_name"], scenario.n_arm)
         result = run_dual(model, job["sensors"], cfg, **kwargs)
@@ -125,7 +125,7 @@ def _run_case(job: dict):
     return spec.name, result
 
 
-def _run_crlb(job: dict):
+def _run_crlb(job: dict, progress=None):
     from postcapture.estimation.crlb import mass_crlb
 
     scenario = Scenario.model_validate(job["scenario"])
@@ -133,7 +133,8 @@ def _run_crlb(job: dict):
     x0, S0 = initial_state_and_sensitivity(model, model.mass)
     p = job["profile"]
     return "crlb", mass_crlb(model, x0, S0, job["t_grid"], R_star=p.star_tracker.covariance(),
-                             sigma_gyro=gyro_sample_sigma(p), sigma_accel=p.accelerometer.sigma, sigma_joint=p.joints.sigma)
+                             sigma_gyro=gyro_sample_sigma(p), sigma_accel=p.accelerometer.sigma, sigma_joint=p.joints.sigma,
+                             progress=progress)
 
 
 def run_main_job(
@@ -214,20 +215,8 @@ def run_main_job(
     jobs = [(_run_case, {**base, "case": c}) for c in cases]
     if crlb:
         jobs.append((_run_crlb, base))
-    outputs: dict = {}
-    if workers > 1 and len(jobs) > 1:
-        ctx = multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-            futures = [pool.submit(fn, job) for fn, job in jobs]
-            for i, fut in enumerate(futures):
-                name, value = fut.result()
-                outputs[name] = value
-                tell(f"{name} done", 0.15 + 0.85 * (i + 1) / len(futures))
-    else:
-        for i, (fn, job) in enumerate(jobs):
-            name, value = fn(job)
-            outputs[name] = value
-            tell(f"{name} done", 0.15 + 0.85 * (i + 1) / len(jobs))
+    outputs = run_jobs(jobs, workers=workers,
+                       on_done=lambda name, done, total: tell(f"{name} done", 0.15 + 0.85 * done / total))
     res = MainJobResult(scenario.name, profile, float(truth.t[-1] - truth.t[0]), m_true, theta0, seed, truth,
                         truth_wall_s=truth_wall, plant=plant)
     res.crlb = outputs.pop("crlb", None)

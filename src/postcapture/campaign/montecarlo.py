@@ -66,7 +66,7 @@ def _seed_task(truth_data: dict, base: dict, seed: int, cases) -> dict:
     dq0 = np.linalg.cholesky(base["P0"]) @ rng.standard_normal(3)
     out = {}
     for case in cases:
-        _, res = _run_case({**base, "sensors": sensors, "dq0": dq0, "case": case})
+        _, res = _run_case({**base, "sensors": sensors, "dq0": dq0, "case": case}, None)
         h = res.attitude
         ok = np.all(np.isfinite(h.q_BN), axis=0)
         e = np.full((3, truth.t.size), np.nan)
