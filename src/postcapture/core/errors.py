@@ -17,6 +17,7 @@ __all__ = [
     "CovarianceError",
     "TimeGridError",
     "SimulationError",
+    "CompileError",
     "FilterDivergenceError",
     "FMIError",
     "MissingExtraError",
@@ -80,6 +81,10 @@ class TimeGridError(PostcaptureError, ValueError):
 
 class SimulationError(PostcaptureError, RuntimeError):
     """The integration failed (Newton did not converge, a state became non-finite, ...)."""
+
+
+class CompileError(PostcaptureError, RuntimeError):
+    """The compiled plant core could not be built or loaded; the message names the cause and the fix."""
 
 
 class FilterDivergenceError(PostcaptureError, RuntimeError):

@@ -1,0 +1,209 @@
+/* postcapture plant core: the model and workspace structure and the 6-D spatial algebra (internal). */
+#ifndef PC_INTERNAL_H
+#define PC_INTERNAL_H
+
+#include <math.h>
+#include <string.h>
+
+#include "pc_plant.h"
+
+/* Joint-space factorization of M(q) + diag(armature) by the articulated-body recursion. */
+typedef struct {
+    double* R;   /* nj x 9: joint placements in the parent at the factorization point */
+    double* p;   /* nj x 3 */
+    double* U;   /* nj x 6 */
+    double* Dinv; /* nj */
+    double root[36]; /* LDL of the root's articulated inertia */
+    int valid;
+} pc_factor_t;
+
+struct pc_model {
+    int nq, nv, nj, nu, ns, nprof, nframes, ntable, custom_b, n_arm, n_arm_v, target_joint, np, free_flyer;
+    int n_root_v, n_root_q, nz;
+    pc_joint_t* joints;
+    pc_spring_t* springs;
+    int* u_to_v;          /* nu: velocity index of each input (default input map) */
+    double* B;            /* nv x nu (custom input map) */
+    pc_profile_t* prof;
+    double* table_t;
+    double* table_v;
+    pc_frame_t* frames;
+    int* arm_v;           /* n_arm_v */
+    double r_acc[3];      /* accelerometer position in the root body frame */
+    double t_L[100];      /* 10 x 10: target hub parameters (T frame) -> joint-frame parameters */
+    double t_base[10];    /* the target joint's inertia without the hub */
+    double* params;       /* np */
+    double* u_extra;      /* nu: added to the excitation */
+    int diag_springs;     /* every spring acts on one coordinate */
+    /* integrator */
+    pc_tableau_t tab;
+    pc_newton_t newton;
+    long n_steps, n_newton, n_factor;
+    /* warm start: the previous step's stages */
+    int have_prev;
+    double* prev_V;       /* stages x nv */
+    double* prev_v;       /* nv */
+    /* workspace */
+    double *Rl, *pl;      /* nj x 9, nj x 3: joint placements in the parent (current configuration) */
+    double *Ro, *po;      /* nj x 9, nj x 3: world placements */
+    double *vj, *aj, *cj, *fj; /* nj x 6 */
+    double* IA;           /* nj x 36 */
+    double *Uj, *Dj, *uj; /* nj x 6, nj, nj */
+    double* tmp_nv[8];
+    double* tmp_nq[2];
+    pc_factor_t fac;
+    double* dense;        /* nv x nv scratch (dense Newton fallback and Jacobians) */
+    int* piv;
+    double* jac_work;     /* derivative and step-Jacobian scratch */
+    size_t jac_work_size;
+    char error[512];
+};
+
+/* The stages of one step (each nv, inputs nu), in one allocation. */
+typedef struct {
+    double* xi[PC_MAX_STAGES];
+    double* V[PC_MAX_STAGES];
+    double* Kxi[PC_MAX_STAGES];
+    double* Kv[PC_MAX_STAGES];
+    double* u[PC_MAX_STAGES];
+    double* buf;
+} pc_stages_t;
+
+void pc_set_error(pc_model_t* m, const char* fmt, ...);
+int pc_step_internal(pc_model_t* m, double* q, double* v, double t, double h, pc_stages_t* S, double* xi_end, int warm);
+void pc_kinematics(pc_model_t* m, const double* q);
+void pc_world_placements(pc_model_t* m);
+void pc_joint_inertia_matrix(const double* pi, double* I6);
+void pc_spring_force(const pc_model_t* m, const double* q, const double* v, double* tau, int add);
+int pc_factorize(pc_model_t* m, const double* q, const double* armature, pc_factor_t* F);
+void pc_factor_solve(const pc_model_t* m, const pc_factor_t* F, double* x);
+void pc_dexpinv_apply(const double* xi, const double* V, double* out);
+void pc_dexpinv_mats(const double* xi, const double* V, double* G, double* Gx);
+void pc_dintegrate_root(const double* xi, double* J0, double* Jr);
+int pc_lu_factor(double* A, int* piv, int n);
+void pc_lu_solve(const double* LU, const int* piv, int n, double* B, int m, int ld);
+void pc_measurement(pc_model_t* m, const double* q, const double* v, const double* ddq, double* z);
+int pc_rnea_derivatives(pc_model_t* m, const double* q, const double* v, const double* a, double* dq, double* dv);
+void pc_param_forces(pc_model_t* m, const double* q, const double* v, const double* a, double* Tp);
+
+/* ---------------------------------------------------------------------------------- 3-D and 6-D algebra */
+static inline void cross3(const double* a, const double* b, double* out) {
+    double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2], z = a[0] * b[1] - a[1] * b[0];
+    out[0] = x; out[1] = y; out[2] = z;
+}
+
+static inline void mv3(const double* R, const double* x, double* out) { /* R x */
+    double a = R[0] * x[0] + R[1] * x[1] + R[2] * x[2];
+    double b = R[3] * x[0] + R[4] * x[1] + R[5] * x[2];
+    double c = R[6] * x[0] + R[7] * x[1] + R[8] * x[2];
+    out[0] = a; out[1] = b; out[2] = c;
+}
+
+static inline void mtv3(const double* R, const double* x, double* out) { /* R^T x */
+    double a = R[0] * x[0] + R[3] * x[1] + R[6] * x[2];
+    double b = R[1] * x[0] + R[4] * x[1] + R[7] * x[2];
+    double c = R[2] * x[0] + R[5] * x[1] + R[8] * x[2];
+    out[0] = a; out[1] = b; out[2] = c;
+}
+
+static inline void mm3(const double* A, const double* B, double* C) { /* C = A B (C may not alias) */
+    int i, j;
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+/* motion in the parent frame -> child frame placed at (R, p): (R^T (v - p x w), R^T w) */
+static inline void motion_act_inv(const double* R, const double* p, const double* m, double* out) {
+    double t[3], pw[3];
+    cross3(p, m + 3, pw);
+    t[0] = m[0] - pw[0]; t[1] = m[1] - pw[1]; t[2] = m[2] - pw[2];
+    mtv3(R, m + 3, out + 3);
+    mtv3(R, t, out);
+}
+
+/* motion in the child frame -> parent frame: (R v + p x R w, R w) */
+static inline void motion_act(const double* R, const double* p, const double* m, double* out) {
+    double w[3], v[3], pw[3];
+    mv3(R, m + 3, w);
+    mv3(R, m, v);
+    cross3(p, w, pw);
+    out[0] = v[0] + pw[0]; out[1] = v[1] + pw[1]; out[2] = v[2] + pw[2];
+    out[3] = w[0]; out[4] = w[1]; out[5] = w[2];
+}
+
+/* wrench in the child frame -> parent frame: (R f, R n + p x R f) */
+static inline void force_act(const double* R, const double* p, const double* f, double* out) {
+    double fl[3], n[3], pf[3];
+    mv3(R, f, fl);
+    mv3(R, f + 3, n);
+    cross3(p, fl, pf);
+    out[0] = fl[0]; out[1] = fl[1]; out[2] = fl[2];
+    out[3] = n[0] + pf[0]; out[4] = n[1] + pf[1]; out[5] = n[2] + pf[2];
+}
+
+/* twist cross twist: v x m = (w x m_l + v_l x m_w, w x m_w) */
+static inline void cross_motion(const double* v, const double* m, double* out) {
+    double a[3], b[3], c[3];
+    cross3(v + 3, m, a);
+    cross3(v, m + 3, b);
+    cross3(v + 3, m + 3, c);
+    out[0] = a[0] + b[0]; out[1] = a[1] + b[1]; out[2] = a[2] + b[2];
+    out[3] = c[0]; out[4] = c[1]; out[5] = c[2];
+}
+
+/* twist cross wrench: v x* f = (w x f_l, w x f_n + v_l x f_l) */
+static inline void cross_force(const double* v, const double* f, double* out) {
+    double a[3], b[3], c[3];
+    cross3(v + 3, f, a);
+    cross3(v + 3, f + 3, b);
+    cross3(v, f, c);
+    out[0] = a[0]; out[1] = a[1]; out[2] = a[2];
+    out[3] = b[0] + c[0]; out[4] = b[1] + c[1]; out[5] = b[2] + c[2];
+}
+
+/* spatial inertia (dynamic parameters) times a twist: (m v - h x w, I_O w + h x v) */
+static inline void inertia_mul(const double* pi, const double* v, double* out) {
+    double m = pi[0];
+    const double* h = pi + 1;
+    double hw[3], hv[3];
+    cross3(h, v + 3, hw);
+    cross3(h, v, hv);
+    out[0] = m * v[0] - hw[0]; out[1] = m * v[1] - hw[1]; out[2] = m * v[2] - hw[2];
+    out[3] = pi[4] * v[3] + pi[5] * v[4] + pi[7] * v[5] + hv[0];
+    out[4] = pi[5] * v[3] + pi[6] * v[4] + pi[8] * v[5] + hv[1];
+    out[5] = pi[7] * v[3] + pi[8] * v[4] + pi[9] * v[5] + hv[2];
+}
+
+static inline void mv6(const double* A, const double* x, double* out) {
+    int i;
+    for (i = 0; i < 6; i++)
+        out[i] = A[6 * i] * x[0] + A[6 * i + 1] * x[1] + A[6 * i + 2] * x[2] + A[6 * i + 3] * x[3] +
+                 A[6 * i + 4] * x[4] + A[6 * i + 5] * x[5];
+}
+
+static inline double dot6(const double* a, const double* b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];
+}
+
+/* Rotation of the joint about its axis by angle q (kind 0/1/2 = x/y/z), row-major. */
+static inline void axis_rotation(int kind, double q, double* R) {
+    double c = cos(q), s = sin(q);
+    int i = (kind + 1) % 3, j = (kind + 2) % 3;
+    memset(R, 0, 9 * sizeof(double));
+    R[4 * kind] = 1.0;
+    R[3 * i + i] = c; R[3 * i + j] = -s;
+    R[3 * j + i] = s; R[3 * j + j] = c;
+}
+
+/* quaternion (x, y, z, w) -> rotation matrix, Eigen's formula */
+static inline void quat_to_matrix(const double* q, double* R) {
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    double tx = 2 * x, ty = 2 * y, tz = 2 * z;
+    double twx = tx * w, twy = ty * w, twz = tz * w, txx = tx * x, txy = ty * x, txz = tz * x;
+    double tyy = ty * y, tyz = tz * y, tzz = tz * z;
+    R[0] = 1 - (tyy + tzz); R[1] = txy - twz; R[2] = txz + twy;
+    R[3] = txy + twz; R[4] = 1 - (txx + tzz); R[5] = tyz - twx;
+    R[6] = txz - twy; R[7] = tyz + twx; R[8] = 1 - (txx + tyy);
+}
+
+#endif
