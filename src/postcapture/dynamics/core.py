@@ -207,7 +207,7 @@ class CompiledPlant:
         n = int(n_samples)
         out = {
             "q": np.zeros((n, self.nq)), "v": np.zeros((n, self.nv)), "ddq": np.zeros((n, self.nv)),
-            "frames": np.zeros((n, self.nframes, 12)), "mech": np.zeros((n, 11)), "balance": np.zeros((n, 7)),
+            "frames": np.zeros((n, self.nframes, 12)), "mech": np.zeros((n, 11 + self.nz)), "balance": np.zeros((n, 7)),
             "u": np.zeros((n, self.nu)),
         }
         if balance0 is not None:
@@ -219,6 +219,13 @@ class CompiledPlant:
                                           ctypes.addressof(cancel)), "simulation")
         out["q_end"], out["v_end"] = q1, v1
         return out
+
+    def sample(self, q, v, t: float):
+        """What a run records at one sample: ``(ddq, frames (nframes, 12), mech (11 + nz), u)``."""
+        ddq, frames, mech = np.zeros(self.nv), np.zeros((self.nframes, 12)), np.zeros(11 + self.nz)
+        self._check(self._lib.pc_sample(self._h, _ptr(_vec(q, self.nq, "q")), _ptr(_vec(v, self.nv, "v")), float(t),
+                                        _ptr(ddq), _ptr(frames), _ptr(mech)), "sample")
+        return ddq, frames, mech, self.inputs(t)
 
     def reset_warm_start(self) -> None:
         """Forget the previous step's stages (the next step starts Newton cold) and the counters."""

@@ -1,7 +1,9 @@
 """What the plant outputs at each sample: attitude, rates, accelerations, deflections, momentum, energy.
 
-Every output is a pure function of ``(q, v, t)`` (and the inputs at ``t``); :class:`OutputRecorder`
-computes them into preallocated arrays with time as the last axis.
+Every output is a pure function of ``(q, v, t)`` (and the inputs at ``t``). The compiled core computes
+the accelerations, the frames, the momenta, the energies and the accelerometer reading
+(``csrc/pc_dynamics.c``, ``pc_sample``); :func:`fill_outputs` arranges them, for any number of samples
+at once, into named histories with time as the last axis.
 """
 
 from __future__ import annotations
@@ -9,12 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
-from postcapture.core.rotations import cross3
+from postcapture.core.rotations import quat_from_pinocchio
 from postcapture.dynamics.system import System
 
-__all__ = ["OutputSpec", "output_specs", "accelerometer_reading", "OutputRecorder"]
+__all__ = ["OutputSpec", "output_specs", "fill_outputs", "OutputRecorder"]
 
 
 @dataclass(frozen=True)
@@ -56,65 +57,57 @@ def output_specs(system: System) -> list[OutputSpec]:
     return specs
 
 
-def accelerometer_reading(v: np.ndarray, ddq: np.ndarray, r_B: np.ndarray) -> np.ndarray:
-    """Acceleration of a point of the chaser at ``r_B`` (B components), from the root's twist rates.
+def fill_outputs(system: System, values: dict, k, q, v, ddq, frames, mech, u) -> None:
+    """Write samples ``k`` (an index or a slice) of every output into ``values``.
 
-    ``a = dv/dt + w x v + dw/dt x r + w x (w x r)``, with Pinocchio's body-frame ``v = (v, w)``.
-    Without gravity this is also the specific force an accelerometer senses.
+    ``q`` (nq, n), ``v`` and ``ddq`` (nv, n), ``frames`` (n, nframes, 12) in the order of the panels' root
+    and tip frames, ``mech`` (11 + nz, n) and ``u`` (nu, n), as the compiled core returns them.
     """
-    w = v[3:6]
-    return ddq[:3] + cross3(w, v[:3]) + cross3(ddq[3:6], r_B) + cross3(w, cross3(w, r_B))
+    off = system.nq - system.nv
+    arm = np.asarray(system.layout.arm_v, dtype=int)
+    values["q_BN"][:, k] = quat_from_pinocchio(q[3:7])
+    values["omega_BN_B"][:, k] = v[3:6]
+    values["r_BN_N"][:, k] = q[0:3]
+    values["accel_B"][:, k] = mech[11:14]
+    if arm.size:
+        values["arm_q"][:, k] = q[arm + off]
+        values["arm_dq"][:, k] = v[arm]
+        values["arm_ddq"][:, k] = ddq[arm]
+    for i, p in enumerate(system.layout.panels):
+        root, tip = frames[:, 2 * i], frames[:, 2 * i + 1]
+        d = tip[:, 9:12] - root[:, 9:12]
+        R = root[:, :9].reshape(-1, 3, 3)
+        local = np.einsum("nji,nj->in", R, d)  # R_root^T (p_tip - p_root)
+        local[0] -= p.length
+        values[f"tip_{p.name}"][:, k] = local
+        values[f"torsion_{p.name}"][0, k] = q[p.torsion_v + off] if p.torsion_v is not None else 0.0
+    values["com_N"][:, k] = mech[0:3]
+    values["momentum_N"][:, k] = mech[3:6]
+    values["angular_momentum_N"][:, k] = mech[6:9]
+    values["energy_kinetic"][0, k] = mech[9]
+    values["energy_elastic"][0, k] = mech[10]
+    values["energy"][0, k] = mech[9] + mech[10]
+    values["u"][:, k] = u
 
 
 class OutputRecorder:
-    """Preallocated output histories for ``n`` samples of a system."""
+    """Preallocated output histories for ``n`` samples of a system, filled one sample at a time.
 
-    def __init__(self, system: System, n: int):
+    The truth simulation records a whole run in one call of the compiled core; this serves single
+    samples (tests, tools).
+    """
+
+    def __init__(self, system: System, n: int, plant=None):
+        from postcapture.dynamics.core import CompiledPlant
+
         self.system = system
+        self.plant = plant if plant is not None else CompiledPlant(system)
         self.specs = output_specs(system)
         self.values = {s.name: np.zeros((len(s.components), n)) for s in self.specs}
-        model = system.model
-        self._acc_r = model.frames[model.getFrameId("accelerometer")].placement.translation.copy()
-        self._panels = [
-            (p, model.getFrameId(p.root_frame), model.getFrameId(p.tip_frame)) for p in system.layout.panels
-        ]
-        self._arm = np.asarray(system.layout.arm_v, dtype=int)
 
     def record(self, k: int, q: np.ndarray, v: np.ndarray, t: float) -> np.ndarray:
-        """Compute every output at sample ``k``; returns ``ddq``.
-
-        One forward-kinematics pass (inside ``centerOfMass``) serves the frames, the momentum and the
-        kinetic energy.
-        """
-        sysm = self.system
-        model, data = sysm.model, sysm.data
-        val = self.values
-        u = sysm.inputs(t)
-        ddq = sysm.acceleration_tau(q, v, sysm.input_torque(u))
-        quat = val["q_BN"]
-        sign = -1.0 if q[6] < 0.0 else 1.0  # w >= 0 on output; Pinocchio stores (x, y, z, w)
-        quat[0, k], quat[1, k], quat[2, k], quat[3, k] = sign * q[6], sign * q[3], sign * q[4], sign * q[5]
-        val["omega_BN_B"][:, k] = v[3:6]
-        val["r_BN_N"][:, k] = q[:3]
-        val["accel_B"][:, k] = accelerometer_reading(v, ddq, self._acc_r)
-        if self._arm.size:
-            val["arm_q"][:, k] = q[self._arm + 1]
-            val["arm_dq"][:, k] = v[self._arm]
-            val["arm_ddq"][:, k] = ddq[self._arm]
-        val["com_N"][:, k] = pin.centerOfMass(model, data, q, v)
-        for p, f_root, f_tip in self._panels:
-            root = pin.updateFramePlacement(model, data, f_root)
-            tip = root.actInv(pin.updateFramePlacement(model, data, f_tip).translation)
-            tip[0] -= p.length
-            val[f"tip_{p.name}"][:, k] = tip
-            val[f"torsion_{p.name}"][0, k] = q[p.torsion_v + 1] if p.torsion_v is not None else 0.0
-        hg = pin.computeCentroidalMomentum(model, data)
-        val["momentum_N"][:, k] = hg.linear
-        val["angular_momentum_N"][:, k] = hg.angular
-        ke = pin.computeKineticEnergy(model, data)
-        pe = sysm.elastic_energy(q)
-        val["energy_kinetic"][0, k] = ke
-        val["energy_elastic"][0, k] = pe
-        val["energy"][0, k] = ke + pe
-        val["u"][:, k] = u
+        """Compute every output at sample ``k``; returns ``ddq``."""
+        ddq, frames, mech, u = self.plant.sample(q, v, t)
+        fill_outputs(self.system, self.values, slice(k, k + 1), np.asarray(q, float)[:, None],
+                     np.asarray(v, float)[:, None], ddq[:, None], frames[None], mech[:, None], u[:, None])
         return ddq

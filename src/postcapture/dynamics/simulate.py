@@ -1,7 +1,9 @@
 """Truth simulation: integrate the plant over a run and record its outputs.
 
-The run also integrates, with the integrator's own quadrature, the energy and momentum the inputs and
-dampers put in or take out, so that conservation can be checked on any run:
+The whole time loop runs in the compiled core (``csrc/pc_integrator.c``), outputs recorded at every
+sample without Python in between. The run also integrates, with the integrator's own quadrature, the
+energy and momentum the inputs and dampers put in or take out, so that conservation can be checked on
+any run:
 
     E(t) - E(0) = W_in(t) - W_damp(t),     H_O(t) - H_O(0) = integral of the external moment about O,
 
@@ -17,46 +19,12 @@ import numpy as np
 
 from postcapture.config.schema import Scenario
 from postcapture.dynamics.build import build_system, initial_state
-from postcapture.dynamics.integrators import make_integrator
-from postcapture.dynamics.outputs import OutputRecorder
+from postcapture.dynamics.core import CompiledPlant
+from postcapture.dynamics.outputs import OutputSpec, fill_outputs, output_specs
 from postcapture.dynamics.system import System
 from postcapture.dynamics.trajectory import Trajectory
 
-__all__ = ["simulate", "simulate_system", "balance_integrand", "drift_metrics"]
-
-
-def _rotate(qx, qy, qz, qw, x0, x1, x2):
-    """``R(q) x`` for a unit quaternion (Pinocchio order x, y, z, w): B components to N, on floats."""
-    t0, t1, t2 = 2.0 * (qy * x2 - qz * x1), 2.0 * (qz * x0 - qx * x2), 2.0 * (qx * x1 - qy * x0)
-    return (x0 + qw * t0 + qy * t2 - qz * t1, x1 + qw * t1 + qz * t0 - qx * t2, x2 + qw * t2 + qx * t1 - qy * t0)
-
-
-def balance_integrand(system: System) -> Callable:
-    """``g(q, v, u) = [power in - power dissipated, external moment about N's origin, force]`` (N components).
-
-    The moment is taken about the fixed origin of N (no centre of mass needed in the integrator's
-    loop); :func:`drift_metrics` moves the balance to the centre of mass with ``H_O = H_c + c x p``.
-    """
-    B_T = system.B.T.copy()
-    d_full = system._d_full if system._diag else None
-    D = system.D_e
-
-    def g(q, v, u):
-        power = float(u @ (B_T @ v))
-        if system.n_e:
-            if d_full is not None:
-                power -= float(v @ (d_full * v))
-            else:
-                w = v[6:]
-                power -= float(w @ (D @ w))
-        px, py, pz, qx, qy, qz, qw = q[:7].tolist()
-        f0, f1, f2, m0, m1, m2 = u[:6].tolist()
-        F = _rotate(qx, qy, qz, qw, f0, f1, f2)
-        M = _rotate(qx, qy, qz, qw, m0, m1, m2)
-        return np.array([power, py * F[2] - pz * F[1] + M[0], pz * F[0] - px * F[2] + M[1],
-                         px * F[1] - py * F[0] + M[2], F[0], F[1], F[2]])
-
-    return g
+__all__ = ["simulate", "simulate_system", "drift_metrics"]
 
 
 def drift_metrics(traj: Trajectory) -> dict[str, float]:
@@ -113,36 +81,37 @@ def simulate_system(
     if per < 1 or abs(ratio - per) > 1e-9:
         raise ValueError(f"sample_period: expected a whole multiple of step = {step}, found {sample_period}")
     n = int(round(duration / sample_period)) + 1
-    integ = make_integrator(system, integrator)
-    rec = OutputRecorder(system, n)
-    q_hist = np.zeros((system.nq, n))
-    v_hist = np.zeros((system.nv, n))
-    a_hist = np.zeros((system.nv, n))
-    bal = np.zeros((7, n))
-    g = balance_integrand(system)
+    plant = CompiledPlant(system, integrator)
+    hist = {"q": np.zeros((n, system.nq)), "v": np.zeros((n, system.nv)), "ddq": np.zeros((n, system.nv)),
+            "frames": np.zeros((n, plant.nframes, 12)), "mech": np.zeros((n, 11 + plant.nz)),
+            "balance": np.zeros((n, 7)), "u": np.zeros((n, system.n_u))}
     q, v = np.array(q0, dtype=float), np.array(v0, dtype=float)
-    acc = np.zeros(7)
+    # chunks of samples, so that progress is reported and the caller regains control between them
+    chunk = max(1, (n - 1) // 50) if progress is not None else n
     wall0 = _time.perf_counter()
-    for k in range(n):
-        t = t0 + k * sample_period
-        if k:
-            for j in range(per):
-                ts = t0 + (k - 1) * sample_period + j * step
-                q, v, dI = integ.step_quadrature(q, v, ts, step, g)
-                acc += dI
-        q_hist[:, k], v_hist[:, k] = q, v
-        a_hist[:, k] = rec.record(k, q, v, t)
-        bal[:, k] = acc
+    k0, bal0 = 0, np.zeros(7)
+    while True:
+        k1 = min(n - 1, k0 + chunk) if n > 1 else 0
+        out = plant.simulate(q, v, t0 + k0 * sample_period, step, per, k1 - k0 + 1, balance0=bal0)
+        first = 0 if k0 == 0 else 1  # a chunk's first sample repeats the previous chunk's last
+        for key in hist:
+            hist[key][k0 + first : k1 + 1] = out[key][first:]
+        q, v, bal0 = out["q_end"], out["v_end"], out["balance"][-1]
         if progress is not None:
-            progress((k + 1) / n)
+            progress((k1 + 1) / n)
+        if k1 >= n - 1:
+            break
+        k0 = k1
     wall = _time.perf_counter() - wall0
-    outputs = dict(rec.values)
+    specs = output_specs(system)
+    outputs = {s.name: np.zeros((len(s.components), n)) for s in specs}
+    fill_outputs(system, outputs, slice(0, n), hist["q"].T, hist["v"].T, hist["ddq"].T, hist["frames"],
+                 hist["mech"].T, hist["u"].T)
+    bal = hist["balance"].T
     outputs["work_in"] = bal[:1]
     outputs["moment_impulse_N"] = bal[1:4]
     outputs["impulse_N"] = bal[4:7]
-    from postcapture.dynamics.outputs import OutputSpec
-
-    specs = rec.specs + [
+    specs = specs + [
         OutputSpec("work_in", ("value",), "J", "work done by the inputs minus energy dissipated by the dampers"),
         OutputSpec("moment_impulse_N", ("x", "y", "z"), "N m s", "time integral of the external moment about the origin of N"),
         OutputSpec("impulse_N", ("x", "y", "z"), "N s", "time integral of the external force"),
@@ -154,9 +123,10 @@ def simulate_system(
         "nq": system.nq,
         "nv": system.nv,
         "wall_s": wall,
-        "newton_iterations": integ.stats["newton_iterations"],
+        "newton_iterations": plant.stats()["newton_iterations"],
     }
-    return Trajectory(np.array([t0 + k * sample_period for k in range(n)]), q_hist, v_hist, a_hist, outputs, specs, attrs)
+    return Trajectory(np.array([t0 + k * sample_period for k in range(n)]), hist["q"].T.copy(), hist["v"].T.copy(),
+                      hist["ddq"].T.copy(), outputs, specs, attrs)
 
 
 def simulate(

@@ -638,7 +638,7 @@ void pc_measurement(pc_model_t* m, const double* q, const double* v, const doubl
 
 /* Everything recorded at a sample: ddq (nv), the output frames' world placements (R 9, p 3 each), and
  * mech = [centre of mass (3), linear momentum (3), angular momentum about the centre of mass (3),
- * kinetic energy, elastic energy], all in the world frame N. */
+ * kinetic energy, elastic energy] in the world frame N, then the measurement z (nz). */
 int pc_sample(pc_model_t* m, const double* q, const double* v, double t, double* ddq, double* frames, double* mech) {
     double* u = m->tmp_nv[6];
     double mass = 0.0, mc[3] = {0, 0, 0}, P[3] = {0, 0, 0}, H[3] = {0, 0, 0}, ke = 0.0, pe = 0.0;
@@ -678,6 +678,7 @@ int pc_sample(pc_model_t* m, const double* q, const double* v, double t, double*
         for (k = 0; k < 3; k++) { mech[k] = mc[k]; mech[3 + k] = P[k]; mech[6 + k] = H[k] - cp[k]; }
         mech[9] = ke;
         mech[10] = pe;
+        pc_measurement(m, q, v, ddq, mech + 11);
     }
     if (frames)
         for (i = 0; i < m->nframes; i++) {

@@ -170,7 +170,7 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
     memcpy(m->t_base, dp, 10 * sizeof(double)); dp += 10;
     memcpy(m->params, dp, (size_t)m->np * sizeof(double));
     default_tableau(&m->tab);
-    m->newton.rtol = 1e-9; m->newton.atol = 1e-11; m->newton.max_iter = 12;
+    m->newton.rtol = 1e-10; m->newton.atol = 1e-15; m->newton.max_iter = 12;
     /* derivative scratch: generous, sized once */
     m->jac_work_size = (size_t)(2 * m->nv + m->nu + m->np + 8) * (size_t)(2 * m->nv) * (PC_MAX_STAGES * 2 + 8) +
                        (size_t)m->nv * m->nv * 8 + (size_t)m->nj * 64;
