@@ -33,7 +33,7 @@ logger = logging.getLogger(__name__)
 SOURCES = ("pc_model.c", "pc_dynamics.c", "pc_derivatives.c", "pc_integrator.c", "pc_jacobian.c")
 HEADERS = ("pc_plant.h", "pc_internal.h")
 # The FMU export compiles the same sources with the same flags, so both run the same arithmetic.
-CFLAGS = ("-O2", "-std=c99", "-fPIC", "-ffp-contract=off", "-fvisibility=hidden")
+CFLAGS = ("-O3", "-std=c99", "-fPIC", "-ffp-contract=off", "-fvisibility=hidden")
 _EXPORTED = "__attribute__((visibility(\"default\")))"
 
 _LIB: ctypes.CDLL | None = None

@@ -1,8 +1,9 @@
-"""The native process model: a :class:`System` behind the filters' ProcessModel protocol.
+"""The native process model: the compiled plant core behind the filters' ProcessModel protocol.
 
 It satisfies :class:`postcapture.estimation.process.ProcessModel` structurally (no import upward).
 State ``x = [q (nq), v (nv)]``; tangent ``[dq (nv), dv (nv)]`` with right perturbations of ``q``, so the
-attitude error is ``dq[3:6]`` (body frame) and the body-rate error ``dv[3:6]``.
+attitude error is ``dq[3:6]`` (body frame) and the body-rate error ``dv[3:6]``. One :meth:`predict`
+is one call of the core: the steps, the measurement and, on request, every Jacobian.
 """
 
 from __future__ import annotations
@@ -11,49 +12,20 @@ import numpy as np
 import pinocchio as pin
 
 from postcapture.core.prediction import Prediction
-from postcapture.core.rotations import skew
-from postcapture.dynamics.integrators import make_integrator
-from postcapture.dynamics.outputs import accelerometer_reading
+from postcapture.core.rotations import quat_from_pinocchio
+from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.system import System
 
-__all__ = ["NativeProcessModel", "measurement_jacobian"]
-
-
-def measurement_jacobian(system: System, q, v, t: float, r_acc: np.ndarray, arm_v: np.ndarray):
-    """Measurement ``z = [accel_B, arm_ddq]`` at ``(q, v, t)`` and its exact derivatives.
-
-    Returns ``z`` (m,), ``H`` (m, 2nv) with respect to the tangent ``(dq, dv)``, and ``h`` (m,) with
-    respect to the target mass (None without a target).
-    """
-    nv = system.nv
-    u = system.input_vector(t)
-    ddq, Aq, Av, Minv = system.derivatives_u(q, v, u)
-    w, vl = v[3:6], v[:3]
-    z = np.concatenate([accelerometer_reading(v, ddq, r_acc), ddq[arm_v]])
-    # accel = ddq[:3] + w x vl + wd x r + w x (w x r)
-    J_ddq = np.hstack([np.eye(3), -skew(r_acc)])  # d accel / d ddq[0:6]
-    d_w = -skew(vl) + np.outer(w, r_acc) + (w @ r_acc) * np.eye(3) - 2.0 * np.outer(r_acc, w)
-    H = np.zeros((z.size, 2 * nv))
-    H[:3, :nv] = J_ddq @ Aq[:6]
-    H[:3, nv:] = J_ddq @ Av[:6]
-    H[:3, nv : nv + 3] += skew(w)
-    H[:3, nv + 3 : nv + 6] += d_w
-    H[3:, :nv] = Aq[arm_v]
-    H[3:, nv:] = Av[arm_v]
-    h = None
-    if system.layout.has_target:
-        dm = system.ddq_dmass(q, v, ddq, Minv)
-        h = np.concatenate([J_ddq @ dm[:6], dm[arm_v]])
-    return z, H, h
+__all__ = ["NativeProcessModel"]
 
 
 class NativeProcessModel:
-    """A filter's own copy of the plant (own Pinocchio model and data, own target mass).
+    """A filter's own copy of the plant (own model, own parameters and target mass).
 
     Parameters
     ----------
     system : System
-        The plant; it is copied, so the filter's mass never touches the truth.
+        The plant; it is copied, so the filter's parameters never touch the truth.
     step : float
         Integrator step (s); a filter step ``dt`` must be a whole multiple of it.
     integrator : str
@@ -65,30 +37,50 @@ class NativeProcessModel:
     def __init__(self, system: System, step: float, integrator: str = "sdirk3", name: str = "native"):
         self.system = system.copy()
         self.step = float(step)
-        self.integrator = make_integrator(self.system, integrator)
         self.name = name
+        self.plant = CompiledPlant(self.system, integrator)
         sysm = self.system
         self.nq, self.nv = sysm.nq, sysm.nv
         self.nx = self.nq + self.nv
         self.n = 2 * self.nv
-        n_arm = sysm.layout.n_arm
-        self.n_meas = 3 + n_arm
+        self.n_meas = self.plant.nz
         self.tangent_attitude = slice(3, 6)
         self.tangent_rate = slice(self.nv + 3, self.nv + 6)
-        model = sysm.model
-        self._r_acc = model.frames[model.getFrameId("accelerometer")].placement.translation.copy()
-        self._arm_v = np.asarray(sysm.layout.arm_v, dtype=int)
-        self._n_arm_locked = n_arm - self._arm_v.size  # the rigid variant has no arm coordinates
+        self.param_names = self.plant.param_names
+        self._has_target = sysm.layout.has_target and self.plant.packed.params.n_inertial == 10
 
-    # ------------------------------------------------------------------ protocol
+    # ------------------------------------------------------------------ parameters
+    @property
+    def params(self) -> np.ndarray:
+        """The named parameter vector (see :class:`postcapture.dynamics.packing.ParameterLayout`)."""
+        return self.plant.params
+
+    def set_params(self, p) -> None:
+        """Set the whole parameter vector of the filter's plant copy."""
+        self.plant.set_params(p)
+
+    def _mass_direction(self) -> np.ndarray:
+        """``d p / d m``: the hub mass changes at a fixed centre of mass and inertia about it."""
+        hub = self.system.layout.target_hub
+        c = np.asarray(hub.com, dtype=float)
+        S = (c @ c) * np.eye(3) - np.outer(c, c)
+        d = np.zeros(self.plant.np)
+        d[:10] = [1.0, *c, S[0, 0], S[0, 1], S[1, 1], S[0, 2], S[1, 2], S[2, 2]]
+        return d
+
     @property
     def mass(self) -> float:
         return self.system.target_mass
 
     @mass.setter
     def mass(self, value: float) -> None:
-        self.system.target_mass = value
+        old = self.system.target_mass
+        self.system.target_mass = value  # validates; keeps the Python model (initial state) in step
+        p = self.plant.params
+        p += (float(value) - old) * self._mass_direction()
+        self.plant.set_params(p)
 
+    # ------------------------------------------------------------------ protocol
     def initial_state(self) -> np.ndarray:
         from postcapture.dynamics.build import initial_state
 
@@ -99,40 +91,20 @@ class NativeProcessModel:
         """``(q, v)`` views of a state vector."""
         return x[: self.nq], x[self.nq :]
 
-    def _measure(self, q, v, t, jacobians):
-        if jacobians:
-            z, H, h = measurement_jacobian(self.system, q, v, t, self._r_acc, self._arm_v)
-        else:
-            ddq = self.system.acceleration(q, v, t)
-            z = np.concatenate([accelerometer_reading(v, ddq, self._r_acc), ddq[self._arm_v]])
-            H = h = None
-        if self._n_arm_locked:  # locked joints measure zero acceleration
-            z = np.concatenate([z, np.zeros(self._n_arm_locked)])
-            if H is not None:
-                H = np.vstack([H, np.zeros((self._n_arm_locked, self.n))])
-                h = np.concatenate([h, np.zeros(self._n_arm_locked)]) if h is not None else None
-        return z, H, h
-
     def predict(self, x, t: float, dt: float, jacobians: bool = False):
         k = int(round(dt / self.step))
         if k < 1 or abs(k * self.step - dt) > 1e-9 * max(1.0, dt):
             raise ValueError(f"dt: expected a whole multiple of the model step {self.step}, found {dt}")
         q, v = self.split(np.asarray(x, dtype=float))
-        F = g = None
-        for j in range(k):
-            tj = t + j * self.step
-            if jacobians:
-                res = self.integrator.step_jacobian(q, v, tj, self.step)
-                q, v = res.q, res.v
-                gm = res.Fm if res.Fm is not None else np.zeros(self.n)
-                if F is None:
-                    F, g = res.Fx, gm
-                else:
-                    F, g = res.Fx @ F, res.Fx @ g + gm
+        q1, v1, z, F, _Fu, Fp, H, _Hu, Hp = self.plant.predict(q, v, t, self.step, k, jacobians)
+        g = h = None
+        if jacobians:
+            if self._has_target:
+                dm = self._mass_direction()
+                g, h = Fp @ dm, Hp @ dm
             else:
-                q, v = self.integrator.step(q, v, tj, self.step)
-        z, H, h = self._measure(q, v, t + dt, jacobians)
-        return Prediction(np.concatenate([q, v]), z, F, g, H, h)
+                g, h = np.zeros(self.n), None
+        return Prediction(np.concatenate([q1, v1]), z, F, g, H, h)
 
     def retract(self, x, dx):
         q, v = self.split(np.asarray(x, dtype=float))
@@ -144,9 +116,7 @@ class NativeProcessModel:
         return np.concatenate([pin.difference(self.system.model, q0, q1), v1 - v0])
 
     def attitude(self, x) -> np.ndarray:
-        q = x[3:7]
-        s = -1.0 if q[3] < 0 else 1.0
-        return s * np.array([q[3], q[0], q[1], q[2]])
+        return quat_from_pinocchio(np.asarray(x[3:7], dtype=float))
 
     def body_rate(self, x) -> np.ndarray:
         return np.asarray(x[self.nq + 3 : self.nq + 6], dtype=float)

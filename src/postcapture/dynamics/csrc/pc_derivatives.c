@@ -219,6 +219,71 @@ void pc_param_forces(pc_model_t* m, const double* q, const double* v, const doub
     }
 }
 
+/* The joint-space mass matrix by the composite-rigid-body algorithm, nv x nv row-major. */
+int pc_crba(pc_model_t* m, const double* q, double* M) {
+    int nv = m->nv, i, k, r;
+    pc_kinematics(m, q);
+    memset(M, 0, (size_t)nv * nv * sizeof(double));
+    for (i = 0; i < m->nj; i++) pc_joint_inertia_matrix(m->joints[i].pi, m->IA + 36 * i);
+    for (i = m->nj - 1; i >= 0; i--) {
+        const pc_joint_t* J = &m->joints[i];
+        const double* Ic = m->IA + 36 * i;
+        int ncol = J->kind < 0 ? 6 : 1;
+        for (k = 0; k < ncol; k++) {
+            double F[6], up[6];
+            int col = J->iv + k, cur = i, par;
+            for (r = 0; r < 6; r++) F[r] = Ic[6 * r + (J->kind < 0 ? k : 3 + J->kind)];
+            while (cur >= 0) {
+                const pc_joint_t* C = &m->joints[cur];
+                if (C->kind < 0) {
+                    for (r = 0; r < 6; r++) M[(size_t)(C->iv + r) * nv + col] = F[r];
+                } else {
+                    M[(size_t)C->iv * nv + col] = F[3 + C->kind];
+                }
+                par = C->parent;
+                if (par >= 0) {
+                    force_act(m->Rl + 9 * cur, m->pl + 3 * cur, F, up);
+                    memcpy(F, up, sizeof F);
+                }
+                cur = par;
+            }
+        }
+        if (J->parent >= 0) pc_add_transformed_inertia(m->Rl + 9 * i, m->pl + 3 * i, Ic, m->IA + 36 * J->parent);
+    }
+    for (i = 0; i < nv; i++)
+        for (k = 0; k < i; k++) M[(size_t)i * nv + k] = M[(size_t)k * nv + i];
+    return PC_OK;
+}
+
+/* Force-form partials at (q, v, u): ddq, Cq = d(ID - tau)/dq (tangent), Cv = d(ID - tau)/dv at a = ddq
+ * (nv x nv), and Tp = d(tau - ID)/dp (nv x np); any of Cq, Cv, Tp may be NULL. */
+int pc_force_partials(pc_model_t* m, const double* q, const double* v, const double* u, double* ddq, double* Cq,
+                      double* Cv, double* Tp) {
+    int nv = m->nv, i, err;
+    err = pc_accel(m, q, v, u, ddq);
+    if (err) return err;
+    if (Cq || Cv) {
+        err = pc_rnea_derivatives(m, q, v, ddq, Cq, Cv);
+        if (err) return err;
+        for (i = 0; i < m->ns; i++) {
+            const pc_spring_t* S = &m->springs[i];
+            int x, y;
+            for (x = 0; x < 2; x++)
+                for (y = 0; y < 2; y++) {
+                    if (S->v[x] < 0 || S->v[y] < 0) continue;
+                    if (Cq) Cq[(size_t)S->v[x] * nv + S->v[y]] += S->k * S->a[x] * S->a[y];
+                    if (Cv) Cv[(size_t)S->v[x] * nv + S->v[y]] += S->d * S->a[x] * S->a[y];
+                }
+        }
+    }
+    if (Tp && m->np) {
+        double* tau = m->tmp_nv[3];
+        pc_rnea(m, q, v, ddq, tau);
+        pc_param_forces(m, q, v, ddq, Tp);
+    }
+    return PC_OK;
+}
+
 /* ddq and its partials (row-major): Aq (nv x nv, tangent), Av (nv x nv), Au (nv x nu), Ap (nv x np).
  * Any output may be NULL. */
 int pc_derivatives(pc_model_t* m, const double* q, const double* v, const double* u, double* ddq, double* Aq,
@@ -230,35 +295,15 @@ int pc_derivatives(pc_model_t* m, const double* q, const double* v, const double
     double* own = (double*)malloc((size_t)nv * sizeof(double));
     if (!own) return PC_ERR_MEMORY;
     if (!ddq) ddq = own;
-    err = pc_accel(m, q, v, u, ddq);
-    if (err) { free(own); return err; }
-    if (Aq || Av) {
-        err = pc_rnea_derivatives(m, q, v, ddq, Aq, Av);
-        if (err) { free(own); return err; }
-        /* springs: d tau / dq = -K, d tau / dv = -D; then negate: A = -(dID - dtau) */
-        for (i = 0; i < m->ns; i++) {
-            const pc_spring_t* S = &m->springs[i];
-            int x, y;
-            for (x = 0; x < 2; x++)
-                for (y = 0; y < 2; y++) {
-                    if (S->v[x] < 0 || S->v[y] < 0) continue;
-                    if (Aq) Aq[(size_t)S->v[x] * nv + S->v[y]] += S->k * S->a[x] * S->a[y];
-                    if (Av) Av[(size_t)S->v[x] * nv + S->v[y]] += S->d * S->a[x] * S->a[y];
-                }
-        }
-        for (i = 0; i < nv * nv; i++) {
-            if (Aq) Aq[i] = -Aq[i];
-            if (Av) Av[i] = -Av[i];
-        }
-    }
     if (Ap && np) {
         Tp = (double*)malloc((size_t)nv * np * sizeof(double));
         if (!Tp) { free(own); return PC_ERR_MEMORY; }
-        {
-            double* tau = m->tmp_nv[3];
-            pc_rnea(m, q, v, ddq, tau);
-        }
-        pc_param_forces(m, q, v, ddq, Tp);
+    }
+    err = pc_force_partials(m, q, v, u, ddq, Aq, Av, Tp);
+    if (err) { free(Tp); free(own); return err; }
+    for (i = 0; i < nv * nv; i++) {
+        if (Aq) Aq[i] = -Aq[i];
+        if (Av) Av[i] = -Av[i];
     }
     /* multiply every column by M^-1 with the articulated factorization at q */
     F.R = m->jac_work; F.p = F.R + 9 * m->nj; F.U = F.p + 3 * m->nj; F.Dinv = F.U + 6 * m->nj; F.valid = 0;
@@ -285,5 +330,46 @@ int pc_derivatives(pc_model_t* m, const double* q, const double* v, const double
 #undef SOLVE_COLUMNS
     free(Tp);
     free(own);
+    return PC_OK;
+}
+
+/* Rows `rows` (nr of them) of the partials of ddq: Aq, Av (nr x nv), Au (nr x nu), Ap (nr x np), from the
+ * force-form partials and the same rows of M^-1 (columns of the symmetric inverse, one O(n) solve each). */
+int pc_derivative_rows(pc_model_t* m, const double* q, const double* v, const double* u, const int* rows, int nr,
+                       double* ddq, double* Aq, double* Av, double* Au, double* Ap) {
+    int nv = m->nv, nu = m->nu, np = m->np, i, k, c, err;
+    double* Cq = (double*)malloc((2 * (size_t)nv * nv + (size_t)nv * (np + 1) + (size_t)nv) * sizeof(double));
+    double *Cv, *Tp, *mr;
+    pc_factor_t F;
+    if (!Cq) return PC_ERR_MEMORY;
+    Cv = Cq + (size_t)nv * nv; Tp = Cv + (size_t)nv * nv; mr = Tp + (size_t)nv * np;
+    err = pc_force_partials(m, q, v, u, ddq, Cq, Cv, Tp);
+    if (err) { free(Cq); return err; }
+    F.R = m->jac_work; F.p = F.R + 9 * m->nj; F.U = F.p + 3 * m->nj; F.Dinv = F.U + 6 * m->nj; F.valid = 0;
+    err = pc_factorize(m, q, NULL, &F);
+    m->n_factor--;
+    if (err) { free(Cq); return err; }
+    for (i = 0; i < nr; i++) {
+        memset(mr, 0, (size_t)nv * sizeof(double));
+        mr[rows[i]] = 1.0;
+        pc_factor_solve(m, &F, mr);
+        for (c = 0; c < nv; c++) {
+            double a = 0.0, b = 0.0;
+            for (k = 0; k < nv; k++) { a += mr[k] * Cq[(size_t)k * nv + c]; b += mr[k] * Cv[(size_t)k * nv + c]; }
+            Aq[(size_t)i * nv + c] = -a;
+            Av[(size_t)i * nv + c] = -b;
+        }
+        for (c = 0; c < nu; c++) {
+            double a = 0.0;
+            for (k = 0; k < nv; k++) a += mr[k] * m->B[(size_t)k * nu + c];
+            Au[(size_t)i * nu + c] = a;
+        }
+        for (c = 0; c < np; c++) {
+            double a = 0.0;
+            for (k = 0; k < nv; k++) a += mr[k] * Tp[(size_t)k * np + c];
+            Ap[(size_t)i * np + c] = a;
+        }
+    }
+    free(Cq);
     return PC_OK;
 }

@@ -126,7 +126,7 @@ void pc_joint_inertia_matrix(const double* pi, double* I6) {
 }
 
 /* I_parent += X* Ia X^-1 for a child placed at (R, p): rotate the blocks, then shift by p. */
-static void add_transformed_inertia(const double* R, const double* p, const double* Ia, double* Ip) {
+void pc_add_transformed_inertia(const double* R, const double* p, const double* Ia, double* Ip) {
     double A[9], B[9], C[9], T[9], Ar[9], Br[9], Cr[9], P[9], AP[9], PA[9], PB[9], X[9];
     int i, j;
     for (i = 0; i < 3; i++)
@@ -239,7 +239,7 @@ int pc_aba(pc_model_t* m, const double* q, const double* v, const double* tau, d
                     for (c = 0; c < 6; c++) Ia[6 * r + c] = IA[6 * r + c] - U[r] * U[c] / D;
                 mv6(Ia, m->cj + 6 * i, Ic);
                 for (k = 0; k < 6; k++) pa[k] = pA[k] + Ic[k] + U[k] * (u / D);
-                add_transformed_inertia(m->Rl + 9 * i, m->pl + 3 * i, Ia, m->IA + 36 * J->parent);
+                pc_add_transformed_inertia(m->Rl + 9 * i, m->pl + 3 * i, Ia, m->IA + 36 * J->parent);
                 force_act(m->Rl + 9 * i, m->pl + 3 * i, pa, f);
                 for (k = 0; k < 6; k++) m->fj[6 * J->parent + k] += f[k];
             }
@@ -352,7 +352,7 @@ int pc_factorize(pc_model_t* m, const double* q, const double* armature, pc_fact
                 double Ia[36];
                 for (r = 0; r < 6; r++)
                     for (c = 0; c < 6; c++) Ia[6 * r + c] = IA[6 * r + c] - U[r] * U[c] / D;
-                add_transformed_inertia(F->R + 9 * i, F->p + 3 * i, Ia, m->IA + 36 * J->parent);
+                pc_add_transformed_inertia(F->R + 9 * i, F->p + 3 * i, Ia, m->IA + 36 * J->parent);
             }
         }
     }

@@ -74,6 +74,12 @@ int pc_step_internal(pc_model_t* m, double* q, double* v, double t, double h, pc
 void pc_kinematics(pc_model_t* m, const double* q);
 void pc_world_placements(pc_model_t* m);
 void pc_joint_inertia_matrix(const double* pi, double* I6);
+void pc_add_transformed_inertia(const double* R, const double* p, const double* Ia, double* Ip);
+int pc_crba(pc_model_t* m, const double* q, double* M);
+int pc_derivative_rows(pc_model_t* m, const double* q, const double* v, const double* u, const int* rows, int nr,
+                       double* ddq, double* Aq, double* Av, double* Au, double* Ap);
+int pc_force_partials(pc_model_t* m, const double* q, const double* v, const double* u, double* ddq, double* Cq,
+                      double* Cv, double* Tp);
 void pc_spring_force(const pc_model_t* m, const double* q, const double* v, double* tau, int add);
 int pc_factorize(pc_model_t* m, const double* q, const double* armature, pc_factor_t* F);
 void pc_factor_solve(const pc_model_t* m, const pc_factor_t* F, double* x);

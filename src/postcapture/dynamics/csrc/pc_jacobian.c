@@ -18,12 +18,12 @@
 
 typedef struct {
     int nv, nt, nc;
-    double *dK, *dZ, *R0, *Aq, *Av, *Au, *Ap, *W, *buf;
+    double *dK, *dZ, *R0, *Aq, *Av, *Au, *Ap, *W, *M, *buf;
 } sens_t;
 
 static int sens_alloc(const pc_model_t* m, sens_t* W) {
     int nv = m->nv, nt = 2 * nv, nc = nt + m->nu + m->np;
-    size_t n = (size_t)PC_MAX_STAGES * nt * nc + 3 * (size_t)nt * nc + 2 * (size_t)nv * nv + (size_t)nv * m->nu +
+    size_t n = (size_t)PC_MAX_STAGES * nt * nc + 3 * (size_t)nt * nc + 3 * (size_t)nv * nv + (size_t)nv * m->nu +
                (size_t)nv * m->np + (size_t)nv * nc + 16;
     W->nv = nv; W->nt = nt; W->nc = nc;
     W->buf = (double*)calloc(n, sizeof(double));
@@ -36,6 +36,7 @@ static int sens_alloc(const pc_model_t* m, sens_t* W) {
     W->Au = W->Av + (size_t)nv * nv;
     W->Ap = W->Au + (size_t)nv * m->nu;
     W->W = W->Ap + (size_t)nv * m->np;
+    W->M = W->W + (size_t)nv * nc;
     return PC_OK;
 }
 
@@ -49,7 +50,13 @@ static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int
     double* qi = m->tmp_nq[0];
     double G[36], Gx[36];
     pc_integrate(m, q, S->xi[i], qi);
-    err = pc_derivatives(m, qi, S->V[i], S->u[i], NULL, W->Aq, W->Av, W->Au, W->Ap);
+    if (hg == 0.0) /* explicit: the accelerations' partials */
+        err = pc_derivatives(m, qi, S->V[i], S->u[i], NULL, W->Aq, W->Av, W->Au, W->Ap);
+    else { /* implicit: force form, no inverse mass matrix (Aq <- Cq, Av <- Cv, Ap <- Tp) */
+        double* ddq = W->W;
+        err = pc_force_partials(m, qi, S->V[i], S->u[i], ddq, W->Aq, W->Av, W->Ap);
+        if (!err) err = pc_crba(m, qi, W->M);
+    }
     if (err) return err;
     memset(R0, 0, (size_t)nt * nc * sizeof(double));
     for (r = 0; r < nv; r++) R0[(size_t)(nv + r) * nc + nv + r] = 1.0;
@@ -82,28 +89,35 @@ static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int
             }
         return PC_OK;
     }
-    /* right-hand side of the velocity sensitivities */
+    /* velocity sensitivities in force form:
+     * (M + hg Cv + hg^2 Cq) W = M dZbar_V - hg Cq dZbar_xi + hg [-Cq 0 B Tp] */
     {
         double* Wm = W->W;
         double* Sm = m->dense;
-        for (r = 0; r < nv; r++)
+        const double *M = W->M, *Cq = W->Aq, *Cv = W->Av, *Tp = W->Ap;
+        for (r = 0; r < nv; r++) {
+            double* Wr = Wm + (size_t)r * nc;
             for (c = 0; c < nc; c++) {
-                double s = R0[(size_t)(nv + r) * nc + c];
-                if (c < nv) s += hg * W->Aq[(size_t)r * nv + c];
-                else if (c >= nt && c < nt + nu) s += hg * W->Au[(size_t)r * nu + (c - nt)];
-                else if (c >= nt + nu) s += hg * W->Ap[(size_t)r * np + (c - nt - nu)];
-                Wm[(size_t)r * nc + c] = s;
+                double s = 0.0;
+                if (c < nv) s = -hg * Cq[(size_t)r * nv + c];
+                else if (c >= nt && c < nt + nu) s = hg * m->B[(size_t)r * nu + (c - nt)];
+                else if (c >= nt + nu) s = hg * Tp[(size_t)r * np + (c - nt - nu)];
+                Wr[c] = s;
             }
-        for (r = 0; r < nv; r++)
+            for (k = 0; k < nv; k++) {
+                double a = M[(size_t)r * nv + k];
+                const double* Rk = R0 + (size_t)(nv + k) * nc;
+                if (a != 0.0)
+                    for (c = 0; c < nc; c++) Wr[c] += a * Rk[c];
+            }
             for (k = rf; k < nv; k++) {
-                double a = hg * W->Aq[(size_t)r * nv + k];
+                double a = -hg * Cq[(size_t)r * nv + k];
                 const double* Rk = R0 + (size_t)k * nc;
-                double* Wr = Wm + (size_t)r * nc;
-                if (a == 0.0) continue;
-                for (c = 0; c < nc; c++) Wr[c] += a * Rk[c];
+                if (a != 0.0)
+                    for (c = 0; c < nc; c++) Wr[c] += a * Rk[c];
             }
-        for (k = 0; k < nv * nv; k++) Sm[k] = -hg * W->Av[k] - hg * hg * W->Aq[k];
-        for (k = 0; k < nv; k++) Sm[(size_t)k * nv + k] += 1.0;
+        }
+        for (k = 0; k < nv * nv; k++) Sm[k] = M[k] + hg * Cv[k] + hg * hg * Cq[k];
         if (pc_lu_factor(Sm, m->piv, nv)) {
             pc_set_error(m, "singular stage sensitivity matrix");
             return PC_ERR_SINGULAR;
@@ -214,8 +228,15 @@ int pc_measure(pc_model_t* m, const double* q, const double* v, double t, double
     Aq = (double*)malloc((2 * (size_t)nv * nv + (size_t)nv * nu + (size_t)nv * np + 1) * sizeof(double));
     if (!Aq) { free(u); free(ddq); return PC_ERR_MEMORY; }
     Av = Aq + (size_t)nv * nv; Au = Av + (size_t)nv * nv; Ap = Au + (size_t)nv * nu;
-    err = pc_derivatives(m, q, v, u, ddq, Aq, Av, Au, Ap);
-    if (err) goto out;
+    {
+        /* only the root's and the arm's rows of the partials enter z: rows 0..5 then arm_v */
+        int rows[6 + 64], nr = 0, jr;
+        if (m->n_arm_v > 64 || !m->free_flyer) { err = PC_ERR_ARG; pc_set_error(m, "measurement: needs a free-flyer root and at most 64 arm joints"); goto out; }
+        for (jr = 0; jr < 6; jr++) rows[nr++] = jr;
+        for (jr = 0; jr < m->n_arm_v; jr++) rows[nr++] = m->arm_v[jr];
+        err = pc_derivative_rows(m, q, v, u, rows, nr, ddq, Aq, Av, Au, Ap);
+        if (err) goto out;
+    }
     pc_measurement(m, q, v, ddq, z);
     {
         /* accel = ddq[0:3] + w x vl + dw x r + w x (w x r): d/d ddq[0:6] = [I, -[r]x] */
@@ -234,7 +255,7 @@ int pc_measure(pc_model_t* m, const double* q, const double* v, double t, double
         for (c = 0; c < (ncol); c++) {                                                        \
             double s = 0.0;                                                                   \
             for (k = 0; k < 6; k++) s += Jd[6 * r + k] * (X)[(size_t)k * (ncol) + c];         \
-            (OUT)[(size_t)r * ((ncol) == nv ? nt : (ncol)) + c] = s;                           \
+            (OUT)[(size_t)r * (ncol) + c] = s;                                                \
         }
         if (H) {
             memset(H, 0, (size_t)nz * nt * sizeof(double));
@@ -255,19 +276,19 @@ int pc_measure(pc_model_t* m, const double* q, const double* v, double t, double
                         H[(size_t)r * nt + nv + 3 + c] += dw[3 * r + c];
                     }
             for (r = 0; r < m->n_arm_v; r++) {
-                memcpy(H + (size_t)(3 + r) * nt, Aq + (size_t)m->arm_v[r] * nv, (size_t)nv * sizeof(double));
-                memcpy(H + (size_t)(3 + r) * nt + nv, Av + (size_t)m->arm_v[r] * nv, (size_t)nv * sizeof(double));
+                memcpy(H + (size_t)(3 + r) * nt, Aq + (size_t)(6 + r) * nv, (size_t)nv * sizeof(double));
+                memcpy(H + (size_t)(3 + r) * nt + nv, Av + (size_t)(6 + r) * nv, (size_t)nv * sizeof(double));
             }
         }
         if (Hu) {
             memset(Hu, 0, (size_t)nz * nu * sizeof(double));
             ROWS3(Au, nu, Hu)
-            for (r = 0; r < m->n_arm_v; r++) memcpy(Hu + (size_t)(3 + r) * nu, Au + (size_t)m->arm_v[r] * nu, (size_t)nu * sizeof(double));
+            for (r = 0; r < m->n_arm_v; r++) memcpy(Hu + (size_t)(3 + r) * nu, Au + (size_t)(6 + r) * nu, (size_t)nu * sizeof(double));
         }
         if (Hp && np) {
             memset(Hp, 0, (size_t)nz * np * sizeof(double));
             ROWS3(Ap, np, Hp)
-            for (r = 0; r < m->n_arm_v; r++) memcpy(Hp + (size_t)(3 + r) * np, Ap + (size_t)m->arm_v[r] * np, (size_t)np * sizeof(double));
+            for (r = 0; r < m->n_arm_v; r++) memcpy(Hp + (size_t)(3 + r) * np, Ap + (size_t)(6 + r) * np, (size_t)np * sizeof(double));
         }
 #undef ROWS3
     }
