@@ -1,20 +1,26 @@
-"""The speed benchmark behind ``postcapture bench``: real-time factors, step Jacobian cost, build time."""
+"""The speed benchmark behind ``postcapture bench``: real-time factors, prediction cost, compile time.
+
+Times are process CPU time on one core (BLAS pinned to one thread), the median of ``repeats`` runs,
+so that a busy machine disturbs them less than wall time would.
+"""
 
 from __future__ import annotations
 
 import os
 import platform
+import statistics
+import tempfile
 import time
 from collections.abc import Callable
 
 import numpy as np
 
 from postcapture.config import load_scenario
+from postcapture.dynamics.accuracy import choose_step
 from postcapture.dynamics.build import build_system, initial_state
-from postcapture.dynamics.integrators import make_integrator
 from postcapture.dynamics.simulate import simulate_system
 
-__all__ = ["machine_info", "run_benchmark"]
+__all__ = ["machine_info", "run_benchmark", "compile_time"]
 
 
 def machine_info() -> dict:
@@ -31,6 +37,8 @@ def machine_info() -> dict:
                     break
     except OSError:
         pass
+    from postcapture.dynamics.compiled import CFLAGS, compiler
+
     return {
         "cpu": cpu,
         "cores": os.cpu_count(),
@@ -38,66 +46,108 @@ def machine_info() -> dict:
         "numpy": np.__version__,
         "scipy": scipy.__version__,
         "pinocchio": pinocchio.__version__,
-        "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS", "default"),
+        "compiler": compiler(),
+        "cflags": " ".join(CFLAGS),
     }
 
 
-def _rtf(scenario, n: int, duration: float, repeats: int = 3) -> tuple[float, float, int]:
-    """Median and best real-time factor over ``repeats`` runs (this machine's timings jitter by ~20 %)."""
+def _cpu(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.process_time()
+        fn()
+        times.append(time.process_time() - t0)
+    return statistics.median(times)
+
+
+def compile_time() -> float:
+    """Seconds to compile the plant core from scratch (into a throw-away cache)."""
+    from postcapture.dynamics import compiled
+
+    with tempfile.TemporaryDirectory(prefix="postcapture_bench_") as tmp:
+        t0 = time.perf_counter()
+        compiled._build(compiled.compiler(), compiled.source_files(), compiled.Path(tmp) / "core.so")
+        return time.perf_counter() - t0
+
+
+def _rtf(scenario, n: int, duration: float, repeats: int, tolerance: float | None) -> dict:
+    sim = scenario.simulation
     system = build_system(scenario, panel_segments=n)
     q0, v0 = initial_state(system)
+    tol = sim.tolerance if tolerance is None else tolerance
+    t0 = time.process_time()
+    step = choose_step(system, q0, v0, duration=duration, sample_period=sim.sample_period, tolerance=tol,
+                       joint_tolerance=sim.joint_tolerance, method=sim.truth_integrator)
+    choose_s = time.process_time() - t0
+    run_s = _cpu(lambda: simulate_system(system, q0, v0, duration, step=step, sample_period=sim.sample_period,
+                                         integrator=sim.truth_integrator), repeats)
+    return {"rtf": duration / (run_s + choose_s), "rtf_run_only": duration / run_s, "step_s": step,
+            "choose_step_s": choose_s, "n_dof": system.nv}
+
+
+def _predict_ms(scenario, n: int, repeats: int = 200) -> float:
+    from postcapture.dynamics.process_model import NativeProcessModel
+
     sim = scenario.simulation
-    rtfs = []
+    model = NativeProcessModel(build_system(scenario, panel_segments=n), sim.step, sim.integrator)
+    x = model.initial_state()
+    for k in range(5):
+        x = model.predict(x, 10.0 + k * sim.step, sim.step).x
+    model.predict(x, 10.5, sim.step, jacobians=True)
+    t0 = time.process_time()
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        simulate_system(system, q0, v0, duration, step=sim.step, sample_period=sim.sample_period, integrator=sim.integrator)
-        rtfs.append(duration / (time.perf_counter() - t0))
-    return float(np.median(rtfs)), float(max(rtfs)), system.nv
+        model.predict(x, 10.5, sim.step, jacobians=True)
+    return (time.process_time() - t0) / repeats * 1e3
 
 
 def run_benchmark(
     scenario_name: str = "envisat",
-    duration: float = 60.0,
-    segments: tuple[int, ...] = (5, 20, 50),
+    duration: float = 300.0,
+    segments: tuple[int, ...] = (5, 50, 200),
+    repeats: int = 3,
+    main_job: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> dict:
-    """Measure the truth simulation's speed on the default scenario.
+    """Measure the compiled plant on the default scenario (keys of ``postcapture bench --json``).
 
-    Returns a dict with ``rtf_n5``, ``rtf_n20``, ``rtf_n50`` (simulated seconds per wall second, outputs
-    recorded, median of three runs; ``rtf_best_n*`` the best), ``step_jacobian_ms_n5`` (one exact step Jacobian), ``build_s_n50`` (scenario to ready
-    model), the degrees of freedom, the integrator settings and the machine.
+    Returns ``rtf_n5``, ``rtf_n50``, ``rtf_n200``: simulated seconds per CPU second of the truth at the
+    scenario's default accuracy (its step chosen by :func:`~postcapture.dynamics.accuracy.choose_step`,
+    the choice included), every output recorded; ``rtf_n5_1arcsec``: the same at N = 5 with a 1 arcsec
+    attitude tolerance; ``predict_ms_n5``, ``predict_ms_n50``: one filter prediction with every Jacobian
+    (state, inputs, parameters, measurement); ``compile_s``: compiling the core from scratch;
+    ``main_job_s``: wall time of the default main job with a warm cache; the chosen steps, the
+    degrees of freedom and the machine.
     """
+    from postcapture.config.schema import ARCSEC
+
+    say = progress or (lambda msg: None)
     scenario = load_scenario(scenario_name)
-    out: dict = {"scenario": scenario_name, "duration_s": duration}
     sim = scenario.simulation
-    out.update(integrator=sim.integrator, step_s=sim.step, sample_period_s=sim.sample_period)
+    out: dict = {"scenario": scenario_name, "duration_s": duration, "integrator": sim.truth_integrator,
+                 "tolerance_rad": sim.tolerance, "joint_tolerance_rad": sim.joint_tolerance,
+                 "sample_period_s": sim.sample_period}
+    say("compile time of the plant core")
+    out["compile_s"] = compile_time()
     for n in segments:
-        if progress:
-            progress(f"real-time factor, N = {n}")
-        rtf, best, nv = _rtf(scenario, n, duration)
-        out[f"rtf_n{n}"] = rtf
-        out[f"rtf_best_n{n}"] = best
-        out[f"n_dof_n{n}"] = nv
-    if progress:
-        progress("step Jacobian, N = 5")
-    system = build_system(scenario, panel_segments=5)
-    q0, v0 = initial_state(system)
-    integ = make_integrator(system, sim.integrator)
-    integ.step_jacobian(q0, v0, 0.0, sim.step)  # warm up
-    reps = 50
-    t0 = time.perf_counter()
-    q, v = q0, v0
-    for k in range(reps):
-        res = integ.step_jacobian(q, v, k * sim.step, sim.step)
-        q, v = res.q, res.v
-    out["step_jacobian_ms_n5"] = (time.perf_counter() - t0) / reps * 1e3
-    if progress:
-        progress("model build, N = 50")
-    times = []
-    for _ in range(3):
+        say(f"truth real-time factor, N = {n}")
+        r = _rtf(scenario, n, duration, repeats if n < 200 else 1, None)
+        out[f"rtf_n{n}"] = r["rtf"]
+        out[f"rtf_run_only_n{n}"] = r["rtf_run_only"]
+        out[f"step_s_n{n}"] = r["step_s"]
+        out[f"n_dof_n{n}"] = r["n_dof"]
+    say("truth real-time factor at 1 arcsec, N = 5")
+    r = _rtf(scenario, 5, duration, repeats, ARCSEC)
+    out["rtf_n5_1arcsec"] = r["rtf"]
+    out["step_s_n5_1arcsec"] = r["step_s"]
+    for n in (5, 50):
+        say(f"prediction with every Jacobian, N = {n}")
+        out[f"predict_ms_n{n}"] = _predict_ms(scenario, n)
+    if main_job:
+        from postcapture.campaign.main_job import run_main_job
+
+        say("main job (default)")
         t0 = time.perf_counter()
-        build_system(scenario, panel_segments=50)
-        times.append(time.perf_counter() - t0)
-    out["build_s_n50"] = min(times)
+        run_main_job(scenario)
+        out["main_job_s"] = time.perf_counter() - t0
     out["machine"] = machine_info()
     return out

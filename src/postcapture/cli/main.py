@@ -170,7 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="speed benchmark (real-time factors, step Jacobian, build time)")
     p.add_argument("--scenario", default="envisat")
-    p.add_argument("--duration", type=_positive_float, default=60.0, metavar="S", help="simulated seconds per case")
+    p.add_argument("--duration", type=_positive_float, default=300.0, metavar="S", help="simulated seconds per case")
     p.add_argument("--accuracy", action="store_true",
                    help="instead: integrator accuracy against RK4 at 0.25 ms (40 s forced and free; minutes)")
     p.add_argument("--json", action="store_true")

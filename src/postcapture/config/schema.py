@@ -41,7 +41,8 @@ __all__ = [
     "VARIANTS",
 ]
 
-INTEGRATORS = ("sdirk3", "sdirk2", "rk4")
+INTEGRATORS = ("sdirk4", "sdirk3", "sdirk2", "rk4")
+ARCSEC = 4.84813681109536e-06  # rad
 VARIANTS = ("flexible", "stiff", "rigid")
 Inertia = Annotated[Mat3, check_inertia]
 
@@ -161,12 +162,20 @@ class InitialState(Frozen):
 
 
 class Simulation(Frozen):
-    """Run settings: duration, integrator, its step and the output sample period (s)."""
+    """Run settings: duration, integrator, its step and the output sample period (s).
+
+    ``tolerance`` and ``joint_tolerance`` (rad) are the accuracy of the truth simulation on the attitude
+    and on the joint angles over the run: its step follows from them (:func:`postcapture.dynamics.accuracy.choose_step`, ``truth_integrator``);
+    ``None`` runs the truth at ``integrator`` and ``step``, which are also the filters' model settings.
+    """
 
     duration: PositiveFloat = 100.0
-    integrator: Literal["sdirk3", "sdirk2", "rk4"] = "sdirk3"
+    integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk3"
     step: PositiveFloat = 0.1
     sample_period: PositiveFloat = 0.1
+    tolerance: PositiveFloat | None = ARCSEC
+    joint_tolerance: PositiveFloat | None = 1.0e-4
+    truth_integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
 
     @model_validator(mode="after")
     def _grid(self):

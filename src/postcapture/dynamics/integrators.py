@@ -80,6 +80,23 @@ TABLEAUX = {
         2,
         True,
     ),
+    # Hairer & Wanner's 5-stage SDIRK of order 4 (Solving ODEs II, table IV.6.5), L-stable, stiffly accurate
+    "sdirk4": Tableau(
+        "sdirk4",
+        np.array(
+            [
+                [1 / 4, 0, 0, 0, 0],
+                [1 / 2, 1 / 4, 0, 0, 0],
+                [17 / 50, -1 / 25, 1 / 4, 0, 0],
+                [371 / 1360, -137 / 2720, 15 / 544, 1 / 4, 0],
+                [25 / 24, -49 / 48, 125 / 16, -85 / 12, 1 / 4],
+            ]
+        ),
+        np.array([25 / 24, -49 / 48, 125 / 16, -85 / 12, 1 / 4]),
+        np.array([1 / 4, 3 / 4, 11 / 20, 1 / 2, 1.0]),
+        4,
+        True,
+    ),
     "sdirk3": Tableau(
         "sdirk3",
         np.array(

@@ -18,6 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from postcapture.config.schema import Scenario
+from postcapture.dynamics.accuracy import choose_step
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.outputs import OutputSpec, fill_outputs, output_specs
@@ -144,7 +145,8 @@ def simulate(
 ) -> Trajectory:
     """Simulate a scenario's truth from its initial state.
 
-    Parameters default to the scenario's ``[simulation]`` section.
+    Parameters default to the scenario's ``[simulation]`` section. Without an explicit ``step`` or
+    ``integrator``, a scenario ``tolerance`` sets the step (:func:`postcapture.dynamics.accuracy.choose_step`).
 
     Examples
     --------
@@ -156,16 +158,23 @@ def simulate(
     sim = scenario.simulation
     system = build_system(scenario, variant, panel_segments=panel_segments, damping=damping, excitation=excitation)
     q0, v0 = initial_state(system)
+    duration = sim.duration if duration is None else duration
+    sample_period = sim.sample_period if sample_period is None else sample_period
+    if step is None and integrator is None and sim.tolerance is not None:
+        integrator = sim.truth_integrator
+        step = choose_step(system, q0, v0, duration=duration, sample_period=sample_period, tolerance=sim.tolerance,
+                           joint_tolerance=sim.joint_tolerance, method=integrator)
     traj = simulate_system(
         system,
         q0,
         v0,
-        sim.duration if duration is None else duration,
+        duration,
         step=sim.step if step is None else step,
-        sample_period=sim.sample_period if sample_period is None else sample_period,
+        sample_period=sample_period,
         integrator=sim.integrator if integrator is None else integrator,
         progress=progress,
     )
+    traj.attrs["tolerance_rad"] = sim.tolerance if sim.tolerance is not None else 0.0
     traj.attrs.update(
         scenario=scenario.name,
         variant=variant,

@@ -1,0 +1,97 @@
+"""Accuracy as a setting: the truth's step from a tolerance on the attitude and the joint angles.
+
+:func:`choose_step` controls the global error of a run by step halving on a pilot window: it runs
+the first ``pilot`` seconds at ``h`` and ``h/2`` (same method, the compiled core), estimates the error
+of the ``h`` run by Richardson's formula ``e(h) = |x_h - x_h/2| 2^p / (2^p - 1)`` on the attitude (the
+rotation angle between the two runs) and the joint angles, extrapolates it linearly in time to the
+whole run, and halves ``h`` (starting from the sample period) until the estimate is within the
+tolerance. The steps it tries divide the sample period, so outputs stay on the sample grid.
+
+L-stable methods damp the arm's stiff modes (213 Hz in the default scenario) unless the step resolves
+them; that part of the error (about 0.16 arcsec over the default 300 s) is not seen by step halving,
+which is why the default tolerance keeps a margin (see BENCHMARKS.md for the measured errors).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from postcapture.core.rotations import quat_from_pinocchio, rotation_angle
+from postcapture.dynamics.system import System
+
+__all__ = ["choose_step", "PILOT_S"]
+
+logger = logging.getLogger(__name__)
+
+PILOT_S = 30.0
+
+
+def _run(system: System, q0, v0, method: str, h: float, sample_period: float, duration: float):
+    from postcapture.dynamics.core import CompiledPlant
+
+    per = int(round(sample_period / h))
+    n = int(round(duration / sample_period)) + 1
+    out = CompiledPlant(system, method).simulate(q0, v0, 0.0, h, per, n)
+    return out["q"]
+
+
+def choose_step(
+    system: System,
+    q0,
+    v0,
+    *,
+    duration: float,
+    sample_period: float,
+    tolerance: float,
+    joint_tolerance: float | None = None,
+    method: str = "sdirk4",
+    pilot: float = PILOT_S,
+    max_halvings: int = 8,
+) -> float:
+    """The largest step ``sample_period / 2^k`` whose estimated error over ``duration`` is within ``tolerance``.
+
+    Parameters
+    ----------
+    system : System
+    q0, v0 : ndarray
+        Initial state (nq,), (nv,).
+    duration, sample_period : float
+        The run (s); the pilot covers ``min(pilot, duration)`` seconds.
+    tolerance : float
+        Largest error of the attitude over the run (rad).
+    joint_tolerance : float, optional
+        Largest error of every joint angle over the run (rad); None: not controlled.
+    method : str
+        Integrator (its order enters Richardson's formula).
+    max_halvings : int
+        Steps tried: ``sample_period / 2^k`` for ``k = 0 .. max_halvings``.
+
+    Returns
+    -------
+    float
+        The step (s).
+    """
+    from postcapture.dynamics.integrators import TABLEAUX
+
+    if not tolerance > 0:
+        raise ValueError(f"tolerance: expected a positive angle in rad, found {tolerance}")
+    p = TABLEAUX[method].order
+    window = min(pilot, duration)
+    window = max(sample_period, round(window / sample_period) * sample_period)
+    off = system.nq - system.nv
+    h = sample_period
+    q_h = _run(system, q0, v0, method, h, sample_period, window)
+    for _ in range(max_halvings):
+        q_half = _run(system, q0, v0, method, h / 2, sample_period, window)
+        att = rotation_angle(quat_from_pinocchio(q_h[:, 3:7].T), quat_from_pinocchio(q_half[:, 3:7].T)).max()
+        joints = np.abs(q_h[:, off + system.n_root_v:] - q_half[:, off + system.n_root_v:]).max(initial=0.0)
+        scale = 2**p / (2**p - 1) * max(1.0, duration / window)
+        err_att, err_joint = att * scale, joints * scale
+        logger.info("accuracy: %s h = %.6g s, estimated errors over %.0f s: attitude %.3g rad, joints %.3g rad",
+                    method, h, duration, err_att, err_joint)
+        if err_att <= tolerance and (joint_tolerance is None or err_joint <= joint_tolerance):
+            return h
+        h, q_h = h / 2, q_half
+    return h
