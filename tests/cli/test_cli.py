@@ -107,7 +107,8 @@ def test_bench_json_keys(capsys):
     code, out, _ = run(capsys, "bench", "--duration", "0.2", "--json")
     assert code == 0
     result = json.loads(out)
-    for key in ("rtf_n5", "rtf_n20", "rtf_n50", "step_jacobian_ms_n5", "build_s_n50"):
+    for key in ("rtf_n5", "rtf_n50", "rtf_n200", "rtf_n5_1arcsec", "predict_ms_n5", "predict_ms_n50", "compile_s",
+                "main_job_s"):
         assert result[key] > 0
 
 

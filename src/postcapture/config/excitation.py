@@ -4,7 +4,9 @@ The input vector of the plant is ``u = [F_B (3), tau_B (3), tau_arm (n_arm)]``: 
 at its centre of mass and a torque, both in chaser body components (thrusters), then the arm joint
 motor torques. Channels are named ``force_x``, ``torque_z``, ``joint_1`` ... ``joint_n``.
 
-Profiles are pure functions of time; entries on the same channel add up.
+Profiles are pure functions of time; entries on the same channel add up. The compiled plant core
+evaluates the same formulas in C (``dynamics/csrc/pc_dynamics.c``), from the constants packed by
+:mod:`postcapture.dynamics.packing`; tests hold the two to round-off.
 """
 
 from __future__ import annotations
@@ -48,12 +50,15 @@ class _Window(Frozen):
             raise problem("a channel among force_x|y|z, torque_x|y|z, joint_<k>", repr(self.channel))
         return self
 
-    def _active(self, t):
+    def _active(self, t, left: bool = False):
         t = np.asarray(t, dtype=float)
-        on = t >= self.start
-        if self.stop is not None:
-            on &= t < self.stop
-        return on
+        stop = np.inf if self.stop is None else self.stop
+        return ((t > self.start) & (t <= stop)) if left else ((t >= self.start) & (t < stop))
+
+    def __call__(self, t, left: bool = False):
+        """The profile at times ``t`` (s): zero outside ``[start, stop)``; ``left`` takes the left limit."""
+        t = np.asarray(t, dtype=float)
+        return np.where(self._active(t, left), self._value(t), 0.0)
 
 
 class Step(_Window):
@@ -67,14 +72,13 @@ class Step(_Window):
     amplitude: float
     rise_time: NonNegativeFloat = 0.0
 
-    def __call__(self, t):
-        t = np.asarray(t, dtype=float)
+    def _value(self, t):
         if self.rise_time == 0.0:
-            return np.where(self._active(t), self.amplitude, 0.0)
+            return np.full(np.shape(t), float(self.amplitude))
         ramp = np.clip((t - self.start) / self.rise_time, 0.0, 1.0)
         if self.stop is not None:
             ramp = np.minimum(ramp, np.clip((self.stop - t) / self.rise_time, 0.0, 1.0))
-        return np.where(self._active(t), self.amplitude * ramp, 0.0)
+        return self.amplitude * ramp
 
 
 class Sine(_Window):
@@ -86,10 +90,8 @@ class Sine(_Window):
     phase: float = 0.0
     offset: float = 0.0
 
-    def __call__(self, t):
-        t = np.asarray(t, dtype=float)
-        val = self.offset + self.amplitude * np.sin(2 * np.pi * self.frequency * (t - self.start) + self.phase)
-        return np.where(self._active(t), val, 0.0)
+    def _value(self, t):
+        return self.offset + self.amplitude * np.sin(2 * np.pi * self.frequency * (t - self.start) + self.phase)
 
 
 class Chirp(_Window):
@@ -107,13 +109,10 @@ class Chirp(_Window):
             raise problem("a stop time for a chirp", "none")
         return self
 
-    def __call__(self, t):
-        t = np.asarray(t, dtype=float)
-        T = self.stop - self.start
+    def _value(self, t):
         tau = t - self.start
-        rate = (self.f1 - self.f0) / T
-        val = self.amplitude * np.sin(2 * np.pi * (self.f0 * tau + 0.5 * rate * tau * tau) + self.phase)
-        return np.where(self._active(t), val, 0.0)
+        rate = (self.f1 - self.f0) / (self.stop - self.start)
+        return self.amplitude * np.sin(2 * np.pi * (self.f0 * tau + 0.5 * rate * tau * tau) + self.phase)
 
 
 class Table(_Window):
@@ -131,9 +130,8 @@ class Table(_Window):
             raise problem("strictly increasing times", list(self.t))
         return self
 
-    def __call__(self, t):
-        t = np.asarray(t, dtype=float)
-        return np.where(self._active(t), np.interp(t, self.t, self.value), 0.0)
+    def _value(self, t):
+        return np.interp(t, self.t, self.value)
 
 
 Excitation = Annotated[Union[Step, Sine, Chirp, Table], Field(discriminator="kind")]

@@ -16,7 +16,7 @@ import pinocchio as pin
 from postcapture.config.excitation import Chirp, Sine, Step, Table, channel_index
 from postcapture.dynamics.system import System
 
-__all__ = ["LAYOUT_VERSION", "Packed", "ParameterLayout", "parameter_layout", "pack", "target_parameter_map"]
+__all__ = ["LAYOUT_VERSION", "Packed", "pack_profiles", "ParameterLayout", "parameter_layout", "pack", "target_parameter_map"]
 
 LAYOUT_VERSION = 3
 _KINDS = {"JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2, "JointModelFreeFlyer": -1}
@@ -118,7 +118,9 @@ class Packed:
     frames: tuple[str, ...]
 
 
-def _profiles(profiles, n_arm: int):
+def pack_profiles(profiles, n_arm: int):
+    """Per profile: ints ``(kind, channel, table offset, table length)`` and doubles ``(start, stop, a,
+    rise, w, phase, offset, f0, rate)``, then the concatenated table times and values."""
     ints, dbl, table_t, table_v = [], [], [], []
     for p in profiles:
         stop = math.inf if p.stop is None else p.stop
@@ -176,7 +178,7 @@ def pack(system: System) -> Packed:
             u_to_v[:6] = range(6)
         for i, iv in enumerate(layout.motor_v):
             u_to_v[6 + i] = int(iv)
-    prof_i, prof_d, table_t, table_v = _profiles(system.inputs.profiles, layout.n_arm)
+    prof_i, prof_d, table_t, table_v = pack_profiles(system.inputs.profiles, layout.n_arm)
     frames, frames_i, frames_d = [], [], []
     for p in layout.panels:
         for name in (p.root_frame, p.tip_frame):

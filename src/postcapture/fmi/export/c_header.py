@@ -12,8 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from postcapture.config.excitation import Chirp, Sine, Step, Table, channel_index
 from postcapture.dynamics.integrators import Tableau
+from postcapture.dynamics.packing import pack_profiles
 from postcapture.fmi.export.interface import Interface
 from postcapture.fmi.symbolic.plant import SymbolicPlant
 
@@ -39,37 +39,14 @@ def _array(values) -> str:
 
 
 def _profiles(profiles: Sequence, n_arm: int):
-    rows, table_t, table_v = [], [], []
-    for p in profiles:
-        stop = math.inf if p.stop is None else p.stop
-        f = {
-            "kind": 0,
-            "channel": channel_index(p.channel, n_arm),
-            "start": p.start,
-            "stop": stop,
-            "a": 0.0,
-            "rise": 0.0,
-            "w": 0.0,
-            "phase": 0.0,
-            "offset": 0.0,
-            "f0": 0.0,
-            "rate": 0.0,
-            "table": 0,
-            "n_table": 0,
-        }
-        if isinstance(p, Step):
-            f.update(kind=0, a=p.amplitude, rise=p.rise_time)
-        elif isinstance(p, Sine):
-            f.update(kind=1, a=p.amplitude, w=2 * math.pi * p.frequency, phase=p.phase, offset=p.offset)
-        elif isinstance(p, Chirp):
-            f.update(kind=2, a=p.amplitude, f0=p.f0, rate=(p.f1 - p.f0) / (stop - p.start), phase=p.phase)
-        elif isinstance(p, Table):
-            f.update(kind=3, table=len(table_t), n_table=len(p.t))
-            table_t += list(p.t)
-            table_v += list(p.value)
-        else:
-            raise TypeError(f"unknown excitation profile {type(p).__name__}")
-        rows.append(f)
+    """The excitation rows of the FMU's ``pc_profile_t`` from the compiled core's packing (one source)."""
+    ints, dbl, table_t, table_v = pack_profiles(profiles, n_arm)
+    rows = []
+    for k in range(len(profiles)):
+        kind, channel, table, n_table = ints[4 * k : 4 * k + 4]
+        start, stop, a, rise, w, phase, offset, f0, rate = dbl[9 * k : 9 * k + 9]
+        rows.append({"kind": kind, "channel": channel, "start": start, "stop": stop, "a": a, "rise": rise, "w": w,
+                     "phase": phase, "offset": offset, "f0": f0, "rate": rate, "table": table, "n_table": n_table})
     return rows, table_t, table_v
 
 

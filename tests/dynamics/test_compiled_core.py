@@ -1,0 +1,204 @@
+"""The compiled plant core against independent references: Pinocchio, central finite differences,
+the Python Lie-group integrator (the oracle) and closed forms."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from postcapture.core.errors import CompileError
+from postcapture.dynamics import compiled
+from postcapture.dynamics.build import build_system, initial_state
+from postcapture.dynamics.core import CompiledPlant
+from postcapture.dynamics.integrators import TABLEAUX, make_integrator
+from postcapture.dynamics.process_model import NativeProcessModel
+
+
+@pytest.fixture(scope="module")
+def system(envisat):
+    return build_system(envisat)
+
+
+@pytest.fixture(scope="module")
+def plant(system):
+    return CompiledPlant(system)
+
+
+def _random_state(system, rng):
+    q = pin.randomConfiguration(system.model, -np.ones(system.nq), np.ones(system.nq))
+    return q, rng.standard_normal(system.nv) * 0.1
+
+
+def test_aba_rnea_mass_matrix_match_pinocchio(system, plant):
+    rng = np.random.default_rng(1)
+    model, data = system.model, system.data
+    for _ in range(5):
+        q, v = _random_state(system, rng)
+        tau = rng.standard_normal(system.nv) * 100.0
+        a_ref = pin.aba(model, data, q, v, tau)
+        np.testing.assert_allclose(plant.aba(q, v, tau), a_ref, rtol=0, atol=1e-10 * np.abs(a_ref).max())
+        t_ref = pin.rnea(model, data, q, v, a_ref)
+        np.testing.assert_allclose(plant.rnea(q, v, a_ref), t_ref, rtol=0, atol=1e-10 * np.abs(t_ref).max())
+        M = pin.crba(model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        np.testing.assert_allclose(plant.mass_matrix(q), M, rtol=0, atol=1e-12 * np.abs(M).max())
+        dq = rng.standard_normal(system.nv) * 0.2
+        np.testing.assert_allclose(plant.integrate(q, dq), pin.integrate(model, q, dq), atol=1e-15)
+
+
+def test_acceleration_partials_match_pinocchio(system, plant):
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        q, v = _random_state(system, rng)
+        u = rng.standard_normal(system.n_u)
+        ddq, dq, dv, Minv = system.derivatives_u(q, v, u)
+        a, Aq, Av, Au, _ = plant.derivatives(q, v, u)
+        np.testing.assert_allclose(a, ddq, atol=1e-10 * np.abs(ddq).max())
+        np.testing.assert_allclose(Aq, dq, atol=1e-10 * np.abs(dq).max())
+        np.testing.assert_allclose(Av, dv, atol=1e-10 * np.abs(dv).max())
+        np.testing.assert_allclose(Au, Minv @ system.B, atol=1e-10 * np.abs(Minv).max())
+
+
+def test_parameter_partials_against_finite_differences(system):
+    plant = CompiledPlant(system)
+    rng = np.random.default_rng(3)
+    q, v = _random_state(system, rng)
+    u = rng.standard_normal(system.n_u)
+    _, _, _, _, Ap = plant.derivatives(q, v, u)
+    p0 = plant.params
+    for k in range(plant.np):
+        dp = 1e-6 * max(1.0, abs(p0[k]))
+        pp, pm = p0.copy(), p0.copy()
+        pp[k] += dp
+        pm[k] -= dp
+        plant.set_params(pp)
+        ap = plant.acceleration(q, v, u)
+        plant.set_params(pm)
+        am = plant.acceleration(q, v, u)
+        fd = (ap - am) / (2 * dp)
+        np.testing.assert_allclose(Ap[:, k], fd, rtol=1e-6, atol=1e-6 * max(1.0, np.abs(fd).max()),
+                                   err_msg=plant.param_names[k])
+    plant.set_params(p0)
+
+
+def test_nominal_parameters_reproduce_the_model(system, plant):
+    """Packing the target's inertia as T-frame parameters and back gives Pinocchio's joint inertia."""
+    names = plant.param_names
+    assert names[:10] == ("target.m", "target.mc_x", "target.mc_y", "target.mc_z", "target.I_xx", "target.I_xy",
+                          "target.I_yy", "target.I_xz", "target.I_yz", "target.I_zz")
+    assert names[-2:] == ("arm.stiffness_scale", "arm.damping_scale")
+    hub = system.layout.target_hub
+    assert plant.params[0] == pytest.approx(hub.mass)
+    np.testing.assert_allclose(plant.params[10:], 1.0)
+
+
+@pytest.mark.parametrize("method", ["sdirk3", "sdirk4", "rk4"])
+def test_step_matches_the_python_oracle(system, method):
+    q, v = initial_state(system)
+    h = 0.1 if method != "rk4" else 1e-3
+    integ = make_integrator(system.copy(), method, newton_tol=1e-13, newton_atol=1e-16)
+    plant = CompiledPlant(system, method)
+    for k in range(5):
+        t = 10.0 + k * h
+        q_ref, v_ref = integ.step(q, v, t, h)
+        q1, v1 = plant.step(q, v, t, h)
+        np.testing.assert_allclose(q1, q_ref, atol=1e-11)
+        np.testing.assert_allclose(v1, v_ref, atol=1e-11 * max(1.0, np.abs(v_ref).max()))
+        q, v = q1, v1
+
+
+def test_step_jacobian_against_central_differences(system):
+    """State, input and parameter columns of the exact step Jacobian against central differences."""
+    plant = CompiledPlant(system)
+    plant.set_newton(1e-14, 1e-16, 30)
+    q, v = initial_state(system)
+    for k in range(3):
+        q, v = plant.step(q, v, 10.0 + 0.1 * k, 0.1)
+    t, h = 10.3, 0.1
+    _, _, F, Fu, Fp = plant.step_jacobian(q, v, t, h)
+    nv = system.nv
+
+    def step(dx=None, du=None, p=None):
+        qq = pin.integrate(system.model, q, dx[:nv]) if dx is not None else q
+        vv = v + dx[nv:] if dx is not None else v
+        plant.set_input_offset(du)
+        if p is not None:
+            plant.set_params(p)
+        q1, v1 = plant.step(qq, vv, t, h)
+        plant.set_input_offset(None)
+        return q1, v1
+
+    def diff(a, b):
+        return np.concatenate([pin.difference(system.model, b[0], a[0]), a[1] - b[1]])
+
+    rng = np.random.default_rng(4)
+    for col in rng.choice(2 * nv, 8, replace=False):
+        e = np.zeros(2 * nv)
+        e[col] = 1e-6
+        fd = diff(step(dx=e), step(dx=-e)) / 2e-6
+        np.testing.assert_allclose(F[:, col], fd, atol=1e-6 * max(1.0, np.abs(F[:, col]).max()))
+    for col in (0, 5, 8):
+        e = np.zeros(system.n_u)
+        e[col] = 1e-3
+        fd = diff(step(du=e), step(du=-e)) / 2e-3
+        np.testing.assert_allclose(Fu[:, col], fd, atol=1e-6 * max(1.0, np.abs(Fu[:, col]).max()))
+    p0 = plant.params
+    for col in range(plant.np):
+        d = 1e-6 * max(1.0, abs(p0[col]))
+        pp, pm = p0.copy(), p0.copy()
+        pp[col] += d
+        pm[col] -= d
+        fd = diff(step(p=pp), step(p=pm)) / (2 * d)
+        plant.set_params(p0)
+        np.testing.assert_allclose(Fp[:, col], fd, atol=1e-6 * max(1.0, np.abs(Fp[:, col]).max()),
+                                   err_msg=plant.param_names[col])
+
+
+def test_prediction_matches_the_python_oracle(system):
+    model = NativeProcessModel(system, 0.1)
+    x = model.initial_state()
+    for k in range(3):
+        x = model.predict(x, 10.0 + 0.1 * k, 0.1).x
+    pred = model.predict(x, 10.3, 0.1, jacobians=True)
+    integ = make_integrator(system.copy(), "sdirk3", newton_tol=1e-13, newton_atol=1e-16)
+    ref = integ.step_jacobian(x[: system.nq], x[system.nq :], 10.3, 0.1)
+    np.testing.assert_allclose(pred.x, np.concatenate([ref.q, ref.v]), atol=1e-11)
+    np.testing.assert_allclose(pred.F, ref.Fx, atol=1e-9 * np.abs(ref.Fx).max())
+    np.testing.assert_allclose(pred.g, ref.Fm, atol=1e-9 * np.abs(ref.Fm).max())
+
+
+def test_mass_setter_moves_only_the_hub_mass(system):
+    model = NativeProcessModel(system, 0.1)
+    p0 = model.params
+    model.mass = model.mass + 50.0
+    dp = model.params - p0
+    assert dp[0] == pytest.approx(50.0)
+    np.testing.assert_allclose(dp[10:], 0.0)
+
+
+def test_sdirk4_tableau_conditions():
+    t = TABLEAUX["sdirk4"]
+    np.testing.assert_allclose(t.A.sum(axis=1), t.c, atol=1e-15)
+    for k, rhs in ((0, 1.0), (1, 0.5), (2, 1 / 3), (3, 0.25)):
+        assert t.b @ t.c**k == pytest.approx(rhs, abs=1e-14)
+    assert t.b @ (t.A @ t.c) == pytest.approx(1 / 6, abs=1e-14)
+
+
+def test_missing_compiler_is_one_clear_error(monkeypatch, tmp_path):
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    monkeypatch.setenv("PATH", str(tmp_path))
+    with pytest.raises(CompileError, match="C compiler"):
+        compiled.compiler()
+
+
+def test_unwritable_cache_is_one_clear_error(monkeypatch, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    with pytest.raises(CompileError, match="POSTCAPTURE_CACHE"):
+        compiled._build(compiled.compiler(), compiled.source_files(), blocker / "sub" / "core.so")
+
+
+def test_compiler_error_names_the_cause(tmp_path):
+    files = dict(compiled.source_files())
+    files["pc_model.c"] += "\nthis is not C;\n"
+    with pytest.raises(CompileError, match="failed"):
+        compiled._build(compiled.compiler(), files, tmp_path / "core.so")
