@@ -142,6 +142,23 @@ class System:
         self._p = p
         self._set_springs()
 
+    def update_parameters(self, values: dict) -> None:
+        """Set some parameters by name (``{"arm.stiffness_scale": 0.9, ...}``), the others unchanged.
+
+        Raises
+        ------
+        DomainError
+            For an unknown name (the known ones are listed) or a non-physical result.
+        """
+        if not values:
+            return
+        p = self._p.copy()
+        for name, value in values.items():
+            if name not in self.parameter_names:
+                raise DomainError(f"parameters: expected names among {', '.join(self.parameter_names)}, found {name!r}")
+            p[self.parameter_names.index(name)] = value
+        self.set_parameters(p)
+
     def _set_springs(self) -> None:
         """Spring and damper matrices at the current scales (new arrays: copies never share them)."""
         A, p = self._A, self._p
