@@ -66,7 +66,7 @@ def test_parameter_partials_against_finite_differences(system):
     _, _, _, _, Ap = plant.derivatives(q, v, u)
     p0 = plant.params
     for k in range(plant.np):
-        dp = 1e-6 * max(1.0, abs(p0[k]))
+        dp = 1e-3 * max(100.0, abs(p0[k]))  # joint springs at random angles make ddq large: FD noise
         pp, pm = p0.copy(), p0.copy()
         pp[k] += dp
         pm[k] -= dp
@@ -85,7 +85,7 @@ def test_nominal_parameters_reproduce_the_model(system, plant):
     names = plant.param_names
     assert names[:10] == ("target.m", "target.mc_x", "target.mc_y", "target.mc_z", "target.I_xx", "target.I_xy",
                           "target.I_yy", "target.I_xz", "target.I_yz", "target.I_zz")
-    assert names[-2:] == ("arm.stiffness_scale", "arm.damping_scale")
+    assert tuple(names[-2:]) == ("arm.stiffness_scale", "arm.damping_scale")
     hub = system.layout.target_hub
     assert plant.params[0] == pytest.approx(hub.mass)
     np.testing.assert_allclose(plant.params[10:], 1.0)

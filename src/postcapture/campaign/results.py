@@ -10,7 +10,7 @@ import numpy as np
 from postcapture.core import rotations as rot
 from postcapture.dynamics.trajectory import write_atomic
 
-__all__ = ["to_dataset", "write_results"]
+__all__ = ["to_dataset", "write_results", "write_campaign"]
 
 
 def to_dataset(result):
@@ -56,7 +56,10 @@ def to_dataset(result):
             "scenario": result.scenario,
             "profile": result.profile,
             "true_mass_kg": result.true_mass,
+            "nominal_mass_kg": result.nominal_mass,
             "initial_mass_kg": result.initial_mass,
+            "truth_source": result.truth_info.get("source", "nominal"),
+            "truth_json": json.dumps(result.truth_info, default=float),
             "seed": result.seed,
             "summary_json": json.dumps(result.summary(), default=float),
         },
@@ -105,4 +108,24 @@ def write_results(result, out_dir, figures: bool = True) -> dict:
             t, ds["attitude_error"].values[i], ds["attitude_sigma"].values[i], name)
     for stem, fig in figs.items():
         paths[stem] = write_atomic(out / f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
+    return paths
+
+
+def write_campaign(result, out_dir, figures: bool = True) -> dict:
+    """Write a campaign's ``campaign.nc``, ``summary.json``, ``table.txt`` and figures into ``out_dir``."""
+    from postcapture.report.campaign import campaign_figures, campaign_table
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = result.summary()
+    paths = {
+        "summary": write_atomic(out / "summary.json",
+                                lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2, default=float))),
+        "table": write_atomic(out / "table.txt", lambda tmp: Path(tmp).write_text(campaign_table(summary) + "\n")),
+    }
+    ds = result.to_xarray()
+    paths["results"] = write_atomic(out / "campaign.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
+    if figures:
+        for stem, fig in campaign_figures(ds, summary).items():
+            paths[stem] = write_atomic(out / f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
     return paths

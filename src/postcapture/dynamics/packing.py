@@ -11,28 +11,22 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from postcapture.config.excitation import Chirp, Sine, Step, Table, channel_index
 from postcapture.dynamics.system import System
 
-__all__ = ["LAYOUT_VERSION", "Packed", "pack_profiles", "ParameterLayout", "parameter_layout", "pack", "target_parameter_map"]
+__all__ = ["LAYOUT_VERSION", "Packed", "pack_profiles", "ParameterLayout", "parameter_layout", "pack"]
 
 LAYOUT_VERSION = 3
 _KINDS = {"JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2, "JointModelFreeFlyer": -1}
-_INERTIA_NAMES = ("m", "mc_x", "mc_y", "mc_z", "I_xx", "I_xy", "I_yy", "I_xz", "I_yz", "I_zz")
 
 
 @dataclass(frozen=True)
 class ParameterLayout:
-    """The named parameter vector of a system and how each spring depends on it.
+    """The system's parameter vector (:mod:`postcapture.dynamics.parameters`) as the core sees it.
 
-    ``names`` and ``nominal`` in order: the target hub's ten inertial parameters in the nominal target
-    frame T (Pinocchio's dynamic-parameter order; kg, kg m, kg m^2 about T's origin), then for each panel
-    (chaser panels, then target panels) ``<panel>.bending_scale``, ``<panel>.torsion_scale``,
-    ``<panel>.damping_scale``, then ``arm.stiffness_scale`` and ``arm.damping_scale`` (dimensionless,
-    nominal 1). ``spring_k[j]`` / ``spring_d[j]``: index of the parameter scaling spring j's stiffness /
-    damping (-1: none; the Spong servos are not scaled).
+    ``spring_k[j]`` / ``spring_d[j]``: index of the parameter scaling spring j's stiffness / damping
+    (-1: none; the Spong servos are not scaled).
     """
 
     names: tuple[str, ...]
@@ -43,69 +37,14 @@ class ParameterLayout:
 
 
 def parameter_layout(system: System) -> ParameterLayout:
-    """The parameter vector of ``system`` at its current values (see :class:`ParameterLayout`)."""
-    names: list[str] = []
-    nominal: list[float] = []
-    layout = system.layout
-    n_inertial = 0
-    if layout.has_target and layout.target_hub is not None:
-        hub = layout.target_hub
-        m_hub = system.target_mass - layout.target_panel_mass  # the current mass (a filter may have changed it)
-        pi = pin.Inertia(m_hub, hub.com, hub.inertia).toDynamicParameters()
-        names += [f"target.{n}" for n in _INERTIA_NAMES]
-        nominal += [float(x) for x in pi]
-        n_inertial = 10
-    panel_index = {}
-    for p in layout.panels:
-        panel_index[p.name] = len(names)
-        names += [f"{p.name}.bending_scale", f"{p.name}.torsion_scale", f"{p.name}.damping_scale"]
-        nominal += [1.0, 1.0, 1.0]
-    arm_index = None
-    if layout.n_arm and layout.arm_v:
-        arm_index = len(names)
-        names += ["arm.stiffness_scale", "arm.damping_scale"]
-        nominal += [1.0, 1.0]
-    spring_k, spring_d = [], []
-    for name in system.assembly.springs.names:
-        k = d = -1
-        for pname, base in panel_index.items():
-            if name == f"{pname}_torsion":
-                k, d = base + 1, base + 2
-            elif name.startswith(f"{pname}_bend_"):
-                k, d = base, base + 2
-        if arm_index is not None and name.startswith("arm_") and not name.endswith("_servo"):
-            k, d = arm_index, arm_index + 1
-        spring_k.append(k)
-        spring_d.append(d)
-    return ParameterLayout(tuple(names), np.asarray(nominal, dtype=float), tuple(spring_k), tuple(spring_d), n_inertial)
+    """The parameter vector of ``system`` at its current values."""
 
+    def index(S: np.ndarray) -> tuple[int, ...]:
+        return tuple(int(np.argmax(row)) if row.any() else -1 for row in S)
 
-def _skew(a) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-
-
-def _sym(I) -> np.ndarray:
-    return np.array([I[0, 0], I[0, 1], I[1, 1], I[0, 2], I[1, 2], I[2, 2]])
-
-
-def target_parameter_map(X: pin.SE3) -> np.ndarray:
-    """The 10 x 10 linear map from dynamic parameters in frame T to those in the joint frame J.
-
-    With T placed at ``X = (R, p)`` in J: ``m' = m``, ``h' = R h + m p`` and, about J's origin,
-    ``I' = R I R^T - [R h]x [p]x - [p]x [R h]x - m [p]x^2`` (linear in ``(m, h, I)``).
-    """
-    R, p = X.rotation, X.translation
-    L = np.zeros((10, 10))
-    P = _skew(p)
-    for k in range(10):
-        e = np.zeros(10)
-        e[k] = 1.0
-        m, h = e[0], e[1:4]
-        I = np.array([[e[4], e[5], e[7]], [e[5], e[6], e[8]], [e[7], e[8], e[9]]])
-        Rh = R @ h
-        out = np.concatenate([[m], Rh + m * p, _sym(R @ I @ R.T - _skew(Rh) @ P - P @ _skew(Rh) - m * P @ P)])
-        L[:, k] = out
-    return L
+    n_inertial = 10 if system.layout.has_target else 0
+    return ParameterLayout(tuple(system.parameter_names), system.parameters(), index(system._S_k),
+                           index(system._S_d), n_inertial)
 
 
 @dataclass(frozen=True)
@@ -193,9 +132,8 @@ def pack(system: System) -> Packed:
     t_base = np.zeros(10)
     target_joint = -1
     if plist.n_inertial:
-        frame = model.frames[model.getFrameId("target")]
-        target_joint = int(frame.parentJoint)
-        t_L = target_parameter_map(frame.placement)
+        target_joint = int(system._t_joint)
+        t_L = system._t_L
         t_base = model.inertias[target_joint].toDynamicParameters() - t_L @ plist.nominal[:10]
         target_joint -= 1
     arm_v = [int(i) for i in layout.arm_v]

@@ -39,6 +39,7 @@ class NativeProcessModel:
         self.step = float(step)
         self.name = name
         self.plant = CompiledPlant(self.system, integrator)
+        self._synced = self.system.parameters()
         sysm = self.system
         self.nq, self.nv = sysm.nq, sysm.nv
         self.nx = self.nq + self.nv
@@ -46,27 +47,35 @@ class NativeProcessModel:
         self.n_meas = self.plant.nz
         self.tangent_attitude = slice(3, 6)
         self.tangent_rate = slice(self.nv + 3, self.nv + 6)
-        self.param_names = self.plant.param_names
-        self._has_target = sysm.layout.has_target and self.plant.packed.params.n_inertial == 10
 
     # ------------------------------------------------------------------ parameters
+    # The Python system copy validates every change and keeps the initial state in step; the compiled
+    # plant copy takes the same vector.
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of the parameter vector (:mod:`postcapture.dynamics.parameters`)."""
+        return self.system.parameter_names
+
     @property
     def params(self) -> np.ndarray:
-        """The named parameter vector (see :class:`postcapture.dynamics.packing.ParameterLayout`)."""
-        return self.plant.params
+        """The model's parameter vector (a copy)."""
+        return self.system.parameters()
 
     def set_params(self, p) -> None:
-        """Set the whole parameter vector of the filter's plant copy."""
-        self.plant.set_params(p)
+        """Set the model's parameter vector (the filter's estimate of the truth's)."""
+        self.system.set_parameters(p)
+        self._sync()
 
-    def _mass_direction(self) -> np.ndarray:
-        """``d p / d m``: the hub mass changes at a fixed centre of mass and inertia about it."""
-        hub = self.system.layout.target_hub
-        c = np.asarray(hub.com, dtype=float)
-        S = (c @ c) * np.eye(3) - np.outer(c, c)
-        d = np.zeros(self.plant.np)
-        d[:10] = [1.0, *c, S[0, 0], S[0, 1], S[1, 1], S[0, 2], S[1, 2], S[2, 2]]
-        return d
+    def _sync(self) -> None:
+        """Give the compiled copy the Python copy's parameters (which may also be set on ``self.system``)."""
+        p = self.system.parameters()
+        if self._synced is None or not np.array_equal(p, self._synced):
+            self.plant.set_params(p)
+            self._synced = p
+
+    def set_newton(self, rtol: float, atol: float, max_iter: int = 12) -> None:
+        """Newton acceptance of the implicit stages (default 1e-10 relative, 1e-15 absolute)."""
+        self.plant.set_newton(rtol, atol, max_iter)
 
     @property
     def mass(self) -> float:
@@ -74,11 +83,8 @@ class NativeProcessModel:
 
     @mass.setter
     def mass(self, value: float) -> None:
-        old = self.system.target_mass
-        self.system.target_mass = value  # validates; keeps the Python model (initial state) in step
-        p = self.plant.params
-        p += (float(value) - old) * self._mass_direction()
-        self.plant.set_params(p)
+        self.system.target_mass = value
+        self._sync()
 
     # ------------------------------------------------------------------ protocol
     def initial_state(self) -> np.ndarray:
@@ -96,15 +102,13 @@ class NativeProcessModel:
         if k < 1 or abs(k * self.step - dt) > 1e-9 * max(1.0, dt):
             raise ValueError(f"dt: expected a whole multiple of the model step {self.step}, found {dt}")
         q, v = self.split(np.asarray(x, dtype=float))
-        q1, v1, z, F, _Fu, Fp, H, _Hu, Hp = self.plant.predict(q, v, t, self.step, k, jacobians)
+        self._sync()
+        q1, v1, z, F, _Fu, G, H, _Hu, Hp = self.plant.predict(q, v, t, self.step, k, jacobians)
         g = h = None
         if jacobians:
-            if self._has_target:
-                dm = self._mass_direction()
-                g, h = Fp @ dm, Hp @ dm
-            else:
-                g, h = np.zeros(self.n), None
-        return Prediction(np.concatenate([q1, v1]), z, F, g, H, h)
+            dpdm = self.system.dparams_dmass() if self.system.layout.has_target else np.zeros(G.shape[1])
+            g, h = G @ dpdm, Hp @ dpdm
+        return Prediction(np.concatenate([q1, v1]), z, F, g, H, h, G, Hp)
 
     def retract(self, x, dx):
         q, v = self.split(np.asarray(x, dtype=float))

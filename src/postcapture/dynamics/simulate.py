@@ -141,12 +141,15 @@ def simulate(
     integrator: str | None = None,
     step: float | None = None,
     sample_period: float | None = None,
+    parameters: dict | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> Trajectory:
     """Simulate a scenario's truth from its initial state.
 
-    Parameters default to the scenario's ``[simulation]`` section. Without an explicit ``step`` or
-    ``integrator``, a scenario ``tolerance`` sets the step (:func:`postcapture.dynamics.accuracy.choose_step`).
+    Settings default to the scenario's ``[simulation]`` section; ``parameters`` overrides named model
+    parameters (:mod:`postcapture.dynamics.parameters`, e.g. a truth drawn from the priors). Without an
+    explicit ``step`` or ``integrator``, the scenario's ``tolerance`` sets the truth's step
+    (:func:`postcapture.dynamics.accuracy.choose_step`).
 
     Examples
     --------
@@ -157,6 +160,7 @@ def simulate(
     """
     sim = scenario.simulation
     system = build_system(scenario, variant, panel_segments=panel_segments, damping=damping, excitation=excitation)
+    system.update_parameters(parameters or {})
     q0, v0 = initial_state(system)
     duration = sim.duration if duration is None else duration
     sample_period = sim.sample_period if sample_period is None else sample_period
