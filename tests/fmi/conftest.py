@@ -5,8 +5,7 @@ takes about half a minute to build, once. ``rigid_plain_fmu`` is the rigid varia
 directional derivatives or Jacobian outputs (a few seconds), for the finite-difference fallback.
 """
 
-import casadi  # noqa: F401 - the fmi extra is part of the test install: fail loudly if it is missing
-import fmpy  # noqa: F401
+import fmpy  # noqa: F401 - the fmi extra is part of the test install: fail loudly if it is missing
 import pytest
 
 

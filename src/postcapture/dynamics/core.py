@@ -50,14 +50,13 @@ class CompiledPlant:
         packed = pack(system)
         self.packed = packed
         self.param_names = packed.params.names
-        self.frames = packed.frames
         ints, dbl = packed.ints, packed.doubles
         self._h = self._lib.pc_create(_ptr(ints), _ptr(dbl), ints.size, dbl.size)
         if not self._h:
             raise SimulationError("the compiled core refused the packed model (layout mismatch or no memory)")
         sizes = np.zeros(7, dtype=np.int32)
         self._lib.pc_sizes(self._h, _ptr(sizes))
-        self.nq, self.nv, self.nu, self.np, self.nz, self.nframes, self.nj = (int(x) for x in sizes)
+        self.nq, self.nv, self.nu, self.np, self.nz, self.npanels, self.nj = (int(x) for x in sizes)
         self.nt = 2 * self.nv
         tab = TABLEAUX[integrator] if isinstance(integrator, str) else integrator
         self.set_tableau(tab)
@@ -200,32 +199,32 @@ class CompiledPlant:
     def simulate(self, q, v, t0: float, h: float, per_sample: int, n_samples: int, balance0=None):
         """Samples ``0 .. n_samples-1`` of a run (sample 0 at ``t0``), ``per_sample`` steps between samples.
 
-        Returns a dict of sample-major histories: ``q``, ``v``, ``ddq``, ``frames`` (n, nframes, 12),
+        Returns a dict of sample-major histories: ``q``, ``v``, ``ddq``, ``panels`` (n, npanels, 4),
         ``mech`` (n, 11), ``balance`` (n, 7), ``u`` (n, nu), and the final ``(q, v)``.
         """
         q1, v1 = _vec(q, self.nq, "q").copy(), _vec(v, self.nv, "v").copy()
         n = int(n_samples)
         out = {
             "q": np.zeros((n, self.nq)), "v": np.zeros((n, self.nv)), "ddq": np.zeros((n, self.nv)),
-            "frames": np.zeros((n, self.nframes, 12)), "mech": np.zeros((n, 11 + self.nz)), "balance": np.zeros((n, 7)),
+            "panels": np.zeros((n, self.npanels, 4)), "mech": np.zeros((n, 11 + self.nz)), "balance": np.zeros((n, 7)),
             "u": np.zeros((n, self.nu)),
         }
         if balance0 is not None:
             out["balance"][0] = balance0
         cancel = ctypes.c_int(0)
         self._check(self._lib.pc_simulate(self._h, _ptr(q1), _ptr(v1), float(t0), float(h), int(per_sample), n,
-                                          _ptr(out["q"]), _ptr(out["v"]), _ptr(out["ddq"]), _ptr(out["frames"]),
+                                          _ptr(out["q"]), _ptr(out["v"]), _ptr(out["ddq"]), _ptr(out["panels"]),
                                           _ptr(out["mech"]), _ptr(out["balance"]), _ptr(out["u"]),
                                           ctypes.addressof(cancel)), "simulation")
         out["q_end"], out["v_end"] = q1, v1
         return out
 
     def sample(self, q, v, t: float):
-        """What a run records at one sample: ``(ddq, frames (nframes, 12), mech (11 + nz), u)``."""
-        ddq, frames, mech = np.zeros(self.nv), np.zeros((self.nframes, 12)), np.zeros(11 + self.nz)
+        """What a run records at one sample: ``(ddq, panels (npanels, 4), mech (11 + nz), u)``."""
+        ddq, panels, mech = np.zeros(self.nv), np.zeros((self.npanels, 4)), np.zeros(11 + self.nz)
         self._check(self._lib.pc_sample(self._h, _ptr(_vec(q, self.nq, "q")), _ptr(_vec(v, self.nv, "v")), float(t),
-                                        _ptr(ddq), _ptr(frames), _ptr(mech)), "sample")
-        return ddq, frames, mech, self.inputs(t)
+                                        _ptr(ddq), _ptr(panels), _ptr(mech)), "sample")
+        return ddq, panels, mech, self.inputs(t)
 
     def reset_warm_start(self) -> None:
         """Forget the previous step's stages (the next step starts Newton cold) and the counters."""

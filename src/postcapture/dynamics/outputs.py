@@ -57,11 +57,11 @@ def output_specs(system: System) -> list[OutputSpec]:
     return specs
 
 
-def fill_outputs(system: System, values: dict, k, q, v, ddq, frames, mech, u) -> None:
+def fill_outputs(system: System, values: dict, k, q, v, ddq, panels, mech, u) -> None:
     """Write samples ``k`` (an index or a slice) of every output into ``values``.
 
-    ``q`` (nq, n), ``v`` and ``ddq`` (nv, n), ``frames`` (n, nframes, 12) in the order of the panels' root
-    and tip frames, ``mech`` (11 + nz, n) and ``u`` (nu, n), as the compiled core returns them.
+    ``q`` (nq, n), ``v`` and ``ddq`` (nv, n), ``panels`` (n, npanels, 4: tip deflection, torsion), ``mech``
+    (11 + nz, n) and ``u`` (nu, n), as the compiled core returns them.
     """
     off = system.nq - system.nv
     arm = np.asarray(system.layout.arm_v, dtype=int)
@@ -74,13 +74,8 @@ def fill_outputs(system: System, values: dict, k, q, v, ddq, frames, mech, u) ->
         values["arm_dq"][:, k] = v[arm]
         values["arm_ddq"][:, k] = ddq[arm]
     for i, p in enumerate(system.layout.panels):
-        root, tip = frames[:, 2 * i], frames[:, 2 * i + 1]
-        d = tip[:, 9:12] - root[:, 9:12]
-        R = root[:, :9].reshape(-1, 3, 3)
-        local = np.einsum("nji,nj->in", R, d)  # R_root^T (p_tip - p_root)
-        local[0] -= p.length
-        values[f"tip_{p.name}"][:, k] = local
-        values[f"torsion_{p.name}"][0, k] = q[p.torsion_v + off] if p.torsion_v is not None else 0.0
+        values[f"tip_{p.name}"][:, k] = panels[:, i, :3].T
+        values[f"torsion_{p.name}"][0, k] = panels[:, i, 3]
     values["com_N"][:, k] = mech[0:3]
     values["momentum_N"][:, k] = mech[3:6]
     values["angular_momentum_N"][:, k] = mech[6:9]
@@ -107,7 +102,7 @@ class OutputRecorder:
 
     def record(self, k: int, q: np.ndarray, v: np.ndarray, t: float) -> np.ndarray:
         """Compute every output at sample ``k``; returns ``ddq``."""
-        ddq, frames, mech, u = self.plant.sample(q, v, t)
+        ddq, panels, mech, u = self.plant.sample(q, v, t)
         fill_outputs(self.system, self.values, slice(k, k + 1), np.asarray(q, float)[:, None],
-                     np.asarray(v, float)[:, None], ddq[:, None], frames[None], mech[:, None], u[:, None])
+                     np.asarray(v, float)[:, None], ddq[:, None], panels[None], mech[:, None], u[:, None])
         return ddq

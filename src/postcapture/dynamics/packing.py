@@ -17,7 +17,7 @@ from postcapture.dynamics.system import System
 
 __all__ = ["LAYOUT_VERSION", "Packed", "pack_profiles", "ParameterLayout", "parameter_layout", "pack"]
 
-LAYOUT_VERSION = 3
+LAYOUT_VERSION = 4
 _KINDS = {"JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2, "JointModelFreeFlyer": -1}
 
 
@@ -54,7 +54,6 @@ class Packed:
     ints: np.ndarray
     doubles: np.ndarray
     params: ParameterLayout
-    frames: tuple[str, ...]
 
 
 def pack_profiles(profiles, n_arm: int):
@@ -118,13 +117,13 @@ def pack(system: System) -> Packed:
         for i, iv in enumerate(layout.motor_v):
             u_to_v[6 + i] = int(iv)
     prof_i, prof_d, table_t, table_v = pack_profiles(system.inputs.profiles, layout.n_arm)
-    frames, frames_i, frames_d = [], [], []
+    panels_i, panels_d = [], []
     for p in layout.panels:
-        for name in (p.root_frame, p.tip_frame):
-            f = model.frames[model.getFrameId(name)]
-            frames.append(name)
-            frames_i.append(int(f.parentJoint) - 1)
-            frames_d += list(f.placement.rotation.ravel()) + list(f.placement.translation)
+        root = model.frames[model.getFrameId(p.root_frame)]
+        tip = model.frames[model.getFrameId(p.tip_frame)]
+        panels_i += [int(root.parentJoint) - 1, int(tip.parentJoint) - 1, -1 if p.torsion_v is None else int(p.torsion_v)]
+        panels_d += list(root.placement.rotation.ravel()) + list(root.placement.translation)
+        panels_d += list(tip.placement.translation) + [p.length]
     r_acc = np.zeros(3)
     if model.existFrame("accelerometer"):
         r_acc = model.frames[model.getFrameId("accelerometer")].placement.translation.copy()
@@ -138,12 +137,12 @@ def pack(system: System) -> Packed:
         target_joint -= 1
     arm_v = [int(i) for i in layout.arm_v]
     header = [
-        LAYOUT_VERSION, model.nq, model.nv, nj, nu, len(sp.rows), len(system.inputs.profiles), len(frames),
+        LAYOUT_VERSION, model.nq, model.nv, nj, nu, len(sp.rows), len(system.inputs.profiles), len(layout.panels),
         len(table_t), int(custom), layout.n_arm, len(arm_v), target_joint, len(plist.names), int(layout.free_flyer),
     ]
-    ints = np.array(header + joints_i + springs_i + u_to_v + prof_i + frames_i + arm_v, dtype=np.int32)
+    ints = np.array(header + joints_i + springs_i + u_to_v + prof_i + panels_i + arm_v, dtype=np.int32)
     dbl = (
         joints_d + springs_d + (list(np.asarray(system.B, dtype=float).ravel()) if custom else []) + prof_d
-        + table_t + table_v + frames_d + list(r_acc) + list(t_L.ravel()) + list(t_base) + list(plist.nominal)
+        + table_t + table_v + panels_d + list(r_acc) + list(t_L.ravel()) + list(t_base) + list(plist.nominal)
     )
-    return Packed(ints, np.asarray(dbl, dtype=float), plist, tuple(frames))
+    return Packed(ints, np.asarray(dbl, dtype=float), plist)

@@ -84,7 +84,7 @@ def simulate_system(
     n = int(round(duration / sample_period)) + 1
     plant = CompiledPlant(system, integrator)
     hist = {"q": np.zeros((n, system.nq)), "v": np.zeros((n, system.nv)), "ddq": np.zeros((n, system.nv)),
-            "frames": np.zeros((n, plant.nframes, 12)), "mech": np.zeros((n, 11 + plant.nz)),
+            "panels": np.zeros((n, plant.npanels, 4)), "mech": np.zeros((n, 11 + plant.nz)),
             "balance": np.zeros((n, 7)), "u": np.zeros((n, system.n_u))}
     q, v = np.array(q0, dtype=float), np.array(v0, dtype=float)
     # chunks of samples, so that progress is reported and the caller regains control between them
@@ -106,7 +106,7 @@ def simulate_system(
     wall = _time.perf_counter() - wall0
     specs = output_specs(system)
     outputs = {s.name: np.zeros((len(s.components), n)) for s in specs}
-    fill_outputs(system, outputs, slice(0, n), hist["q"].T, hist["v"].T, hist["ddq"].T, hist["frames"],
+    fill_outputs(system, outputs, slice(0, n), hist["q"].T, hist["v"].T, hist["ddq"].T, hist["panels"],
                  hist["mech"].T, hist["u"].T)
     bal = hist["balance"].T
     outputs["work_in"] = bal[:1]

@@ -1,4 +1,4 @@
-"""Lazy imports of the optional ``fmi`` extra (CasADi, FMPy).
+"""Lazy imports of the optional ``fmi`` extra (FMPy).
 
 ``import postcapture.fmi`` works without them; the functions that need them call these helpers, which
 raise :class:`~postcapture.core.errors.MissingExtraError` naming the extra to install.
@@ -11,7 +11,7 @@ from types import ModuleType
 
 from postcapture.core.errors import MissingExtraError
 
-__all__ = ["import_casadi", "import_fmpy"]
+__all__ = ["import_fmpy"]
 
 
 def _load(name: str) -> ModuleType:
@@ -19,11 +19,6 @@ def _load(name: str) -> ModuleType:
         return importlib.import_module(name)
     except ImportError as exc:
         raise MissingExtraError(name, "fmi") from exc
-
-
-def import_casadi() -> ModuleType:
-    """The ``casadi`` module, or :class:`MissingExtraError` ``("casadi", "fmi")``."""
-    return _load("casadi")
 
 
 def import_fmpy() -> ModuleType:

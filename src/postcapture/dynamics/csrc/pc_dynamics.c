@@ -636,10 +636,104 @@ void pc_measurement(pc_model_t* m, const double* q, const double* v, const doubl
     for (i = 0; i < m->n_arm; i++) z[3 + i] = i < m->n_arm_v ? ddq[m->arm_v[i]] : 0.0;
 }
 
-/* Everything recorded at a sample: ddq (nv), the output frames' world placements (R 9, p 3 each), and
+/* Per panel: the tip deflection in the panel's root frame (3, the undeformed tip at (length, 0, 0)
+ * subtracted) and the root torsion angle; needs the world placements of q (pc_world_placements). */
+void pc_panel_outputs(const pc_model_t* m, const double* q, double* out) {
+    int i, k, off = m->nq - m->nv;
+    for (i = 0; i < m->npanels; i++) {
+        const pc_panel_t* P = &m->panels[i];
+        double Rr[9], pr[3], pt[3], d[3], t3[3];
+        mm3(m->Ro + 9 * P->root_joint, P->R, Rr);
+        mv3(m->Ro + 9 * P->root_joint, P->p, t3);
+        for (k = 0; k < 3; k++) pr[k] = m->po[3 * P->root_joint + k] + t3[k];
+        mv3(m->Ro + 9 * P->tip_joint, P->tip, t3);
+        for (k = 0; k < 3; k++) { pt[k] = m->po[3 * P->tip_joint + k] + t3[k]; d[k] = pt[k] - pr[k]; }
+        mtv3(Rr, d, out + 4 * i);
+        out[4 * i] -= P->length;
+        out[4 * i + 3] = P->torsion_v >= 0 ? q[P->torsion_v + off] : 0.0;
+    }
+}
+
+/* d(panel outputs)/dq (4 npanels x nv, tangent; the tip in the root frame depends on the panel's own
+ * joints only: a revolute joint j on the chain moves the tip by a_j x (p_tip - o_j)); needs the world
+ * placements of q. */
+void pc_panel_jacobian(const pc_model_t* m, double* J) {
+    int i, k, nv = m->nv;
+    memset(J, 0, (size_t)4 * m->npanels * nv * sizeof(double));
+    for (i = 0; i < m->npanels; i++) {
+        const pc_panel_t* P = &m->panels[i];
+        double Rr[9], pt[3], t3[3];
+        int j = P->tip_joint;
+        mm3(m->Ro + 9 * P->root_joint, P->R, Rr);
+        mv3(m->Ro + 9 * P->tip_joint, P->tip, t3);
+        for (k = 0; k < 3; k++) pt[k] = m->po[3 * P->tip_joint + k] + t3[k];
+        while (j >= 0 && j != P->root_joint) {
+            const pc_joint_t* Jn = &m->joints[j];
+            if (Jn->kind >= 0) {
+                double a[3], r[3], c[3], loc[3];
+                for (k = 0; k < 3; k++) { a[k] = m->Ro[9 * j + 3 * k + Jn->kind]; r[k] = pt[k] - m->po[3 * j + k]; }
+                cross3(a, r, c);
+                mtv3(Rr, c, loc);
+                for (k = 0; k < 3; k++) J[(size_t)(4 * i + k) * nv + Jn->iv] = loc[k];
+            }
+            j = Jn->parent;
+        }
+        if (P->torsion_v >= 0) J[(size_t)(4 * i + 3) * nv + P->torsion_v] = 1.0;
+    }
+}
+
+/* d(panel outputs)/d(root quaternion components x, y, z, w) in the ambient configuration (4 npanels x
+ * 4). The tips are relative to the root body, so they move only when the quaternion's norm changes the
+ * matrix it is read as (Eigen's formula): tip = A^T R0^T R0 b, with A and b the root frame and the tip
+ * in root-body axes; exact at a unit quaternion. Needs the world placements of q. */
+void pc_panel_quat_jacobian(const pc_model_t* m, const double* q, double* J) {
+    const double* a = q + 3;
+    double R0[9], dR[4][9];
+    int i, c, k, r;
+    double x = a[0], y = a[1], z = a[2], w = a[3];
+    quat_to_matrix(a, R0);
+    /* d R0 / d(x, y, z, w) */
+    {
+        double D[4][9] = {
+            {0, 2 * y, 2 * z, 2 * y, -4 * x, -2 * w, 2 * z, 2 * w, -4 * x},
+            {-4 * y, 2 * x, 2 * w, 2 * x, 0, 2 * z, -2 * w, 2 * z, -4 * y},
+            {-4 * z, -2 * w, 2 * x, 2 * w, -4 * z, 2 * y, 2 * x, 2 * y, 0},
+            {0, -2 * z, 2 * y, 2 * z, 0, -2 * x, -2 * y, 2 * x, 0},
+        };
+        memcpy(dR, D, sizeof dR);
+    }
+    memset(J, 0, (size_t)16 * m->npanels * sizeof(double));
+    for (i = 0; i < m->npanels; i++) {
+        const pc_panel_t* P = &m->panels[i];
+        double Rr[9], pr[3], pt[3], d[3], t3[3], A[9], b[3];
+        mm3(m->Ro + 9 * P->root_joint, P->R, Rr);
+        mv3(m->Ro + 9 * P->root_joint, P->p, t3);
+        for (k = 0; k < 3; k++) pr[k] = m->po[3 * P->root_joint + k] + t3[k];
+        mv3(m->Ro + 9 * P->tip_joint, P->tip, t3);
+        for (k = 0; k < 3; k++) { pt[k] = m->po[3 * P->tip_joint + k] + t3[k]; d[k] = pt[k] - pr[k]; }
+        for (r = 0; r < 3; r++)
+            for (k = 0; k < 3; k++) A[3 * r + k] = R0[r] * Rr[k] + R0[3 + r] * Rr[3 + k] + R0[6 + r] * Rr[6 + k];
+        mtv3(R0, d, b);
+        for (c = 0; c < 4; c++) {
+            double S[9], Sb[3], col[3];
+            for (r = 0; r < 3; r++)
+                for (k = 0; k < 3; k++) {
+                    double s1 = 0.0;
+                    int l;
+                    for (l = 0; l < 3; l++) s1 += dR[c][3 * l + r] * R0[3 * l + k] + R0[3 * l + r] * dR[c][3 * l + k];
+                    S[3 * r + k] = s1;
+                }
+            mv3(S, b, Sb);
+            mtv3(A, Sb, col);
+            for (k = 0; k < 3; k++) J[(size_t)(4 * i + k) * 4 + c] = col[k];
+        }
+    }
+}
+
+/* Everything recorded at a sample: ddq (nv), the panels' outputs (4 each, pc_panel_outputs), and
  * mech = [centre of mass (3), linear momentum (3), angular momentum about the centre of mass (3),
  * kinetic energy, elastic energy] in the world frame N, then the measurement z (nz). */
-int pc_sample(pc_model_t* m, const double* q, const double* v, double t, double* ddq, double* frames, double* mech) {
+int pc_sample(pc_model_t* m, const double* q, const double* v, double t, double* ddq, double* panels, double* mech) {
     double* u = m->tmp_nv[6];
     double mass = 0.0, mc[3] = {0, 0, 0}, P[3] = {0, 0, 0}, H[3] = {0, 0, 0}, ke = 0.0, pe = 0.0;
     int i, k, err;
@@ -680,14 +774,6 @@ int pc_sample(pc_model_t* m, const double* q, const double* v, double t, double*
         mech[10] = pe;
         pc_measurement(m, q, v, ddq, mech + 11);
     }
-    if (frames)
-        for (i = 0; i < m->nframes; i++) {
-            const pc_frame_t* Fr = &m->frames[i];
-            double* out = frames + 12 * i;
-            double t3[3];
-            mm3(m->Ro + 9 * Fr->joint, Fr->R, out);
-            mv3(m->Ro + 9 * Fr->joint, Fr->p, t3);
-            for (k = 0; k < 3; k++) out[9 + k] = m->po[3 * Fr->joint + k] + t3[k];
-        }
+    if (panels) pc_panel_outputs(m, q, panels);
     return PC_OK;
 }

@@ -288,10 +288,10 @@ int pc_step(pc_model_t* m, double* q, double* v, double t, double h, double* qua
 }
 
 /* The whole truth run: n_samples samples, per_sample steps of h between them, every output recorded.
- * Histories are sample-major (the caller transposes): q (nq), v (nv), ddq (nv), frames (12 nframes),
+ * Histories are sample-major (the caller transposes): q (nq), v (nv), ddq (nv), panels (4 npanels),
  * mech (11 + nz), the balance integrals (7) and the inputs (nu) at each sample. */
 int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double h, int per_sample, int n_samples,
-                double* q_hist, double* v_hist, double* a_hist, double* frames_hist, double* mech_hist,
+                double* q_hist, double* v_hist, double* a_hist, double* panels_hist, double* mech_hist,
                 double* bal_hist, double* u_hist, volatile int* cancel) {
     pc_stages_t S;
     int k, j, err = PC_OK, nv = m->nv;
@@ -314,7 +314,7 @@ int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double h, int pe
         }
         memcpy(q_hist + (size_t)k * m->nq, q, (size_t)m->nq * sizeof(double));
         memcpy(v_hist + (size_t)k * nv, v, (size_t)nv * sizeof(double));
-        err = pc_sample(m, q, v, t, a_hist + (size_t)k * nv, frames_hist + (size_t)k * 12 * m->nframes,
+        err = pc_sample(m, q, v, t, a_hist + (size_t)k * nv, panels_hist + (size_t)k * 4 * m->npanels,
                         mech_hist + (size_t)k * (11 + m->nz));
         if (err) goto done;
         memcpy(bal_hist + (size_t)k * 7, quad, sizeof quad);

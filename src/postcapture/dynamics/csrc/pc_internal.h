@@ -18,7 +18,7 @@ typedef struct {
 } pc_factor_t;
 
 struct pc_model {
-    int nq, nv, nj, nu, ns, nprof, nframes, ntable, custom_b, n_arm, n_arm_v, target_joint, np, free_flyer;
+    int nq, nv, nj, nu, ns, nprof, npanels, ntable, custom_b, n_arm, n_arm_v, target_joint, np, free_flyer;
     int n_root_v, n_root_q, nz;
     pc_joint_t* joints;
     pc_spring_t* springs;
@@ -27,7 +27,7 @@ struct pc_model {
     pc_profile_t* prof;
     double* table_t;
     double* table_v;
-    pc_frame_t* frames;
+    pc_panel_t* panels;
     int* arm_v;           /* n_arm_v */
     double r_acc[3];      /* accelerometer position in the root body frame */
     double t_L[100];      /* 10 x 10: target hub parameters (T frame) -> joint-frame parameters */

@@ -3,10 +3,10 @@
  *
  * Int array: header (PC_I_*), then joints (parent, kind, iq, iv), springs (v0, v1, k-scale index,
  * d-scale index), the input map (velocity index of each input), profiles (kind, channel, table offset,
- * table length), output frames (joint), arm velocity indices.
+ * table length), panels (root joint, tip joint, torsion index), arm velocity indices.
  * Double array: joints (R 9, p 3, dynamic parameters 10), springs (a0, a1, k, d, rest), the custom input
  * matrix (nv x nu, when flagged), profiles (start, stop, a, rise, w, phase, offset, f0, rate), table
- * times and values, frames (R 9, p 3), accelerometer position (3), the target map (10 x 10) and base
+ * times and values, panels (root frame R 9, p 3, tip point 3, length), accelerometer position (3), the target map (10 x 10) and base
  * (10), the nominal parameter vector (np).
  */
 #include <stdarg.h>
@@ -34,7 +34,7 @@ void pc_destroy(pc_model_t* m) {
     int i;
     if (!m) return;
     free(m->joints); free(m->springs); free(m->u_to_v); free(m->B); free(m->prof); free(m->table_t);
-    free(m->table_v); free(m->frames); free(m->arm_v); free(m->params); free(m->u_extra); free(m->prev_V);
+    free(m->table_v); free(m->panels); free(m->arm_v); free(m->params); free(m->u_extra); free(m->prev_V);
     free(m->prev_v); free(m->Rl); free(m->pl); free(m->Ro); free(m->po); free(m->vj); free(m->aj); free(m->cj);
     free(m->fj); free(m->IA); free(m->Uj); free(m->Dj); free(m->uj);
     for (i = 0; i < 8; i++) free(m->tmp_nv[i]);
@@ -66,16 +66,16 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
     m = (pc_model_t*)calloc(1, sizeof *m);
     if (!m) return NULL;
     m->nq = ib[PC_I_NQ]; m->nv = ib[PC_I_NV]; m->nj = ib[PC_I_NJ]; m->nu = ib[PC_I_NU]; m->ns = ib[PC_I_NS];
-    m->nprof = ib[PC_I_NPROF]; m->nframes = ib[PC_I_NFRAMES]; m->ntable = ib[PC_I_NTABLE];
+    m->nprof = ib[PC_I_NPROF]; m->npanels = ib[PC_I_NFRAMES]; m->ntable = ib[PC_I_NTABLE];
     m->custom_b = ib[PC_I_CUSTOM_B]; m->n_arm = ib[PC_I_NARM]; m->n_arm_v = ib[PC_I_NARM_V];
     m->target_joint = ib[PC_I_TARGET_JOINT]; m->np = ib[PC_I_NP]; m->free_flyer = ib[PC_I_FREE_FLYER];
     m->n_root_v = m->free_flyer ? 6 : 0;
     m->n_root_q = m->free_flyer ? 7 : 0;
     m->nz = 3 + m->n_arm;
     need_i = PC_I_HEADER + 4 * (size_t)m->nj + 4 * (size_t)m->ns + (size_t)m->nu + 4 * (size_t)m->nprof +
-             (size_t)m->nframes + (size_t)m->n_arm_v;
+             3 * (size_t)m->npanels + (size_t)m->n_arm_v;
     need_d = 22 * (size_t)m->nj + 5 * (size_t)m->ns + (m->custom_b ? (size_t)m->nv * m->nu : 0) +
-             9 * (size_t)m->nprof + 2 * (size_t)m->ntable + 12 * (size_t)m->nframes + 3 + 110 + (size_t)m->np;
+             9 * (size_t)m->nprof + 2 * (size_t)m->ntable + 16 * (size_t)m->npanels + 3 + 110 + (size_t)m->np;
     if (n_ib != need_i || n_db != need_d || m->nv <= 0 || m->nj <= 0) {
         pc_set_error(m, "packed model: expected %zu ints and %zu doubles, found %zu and %zu", need_i, need_d, n_ib, n_db);
         free(m);
@@ -88,7 +88,7 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
     m->prof = (pc_profile_t*)zalloc((size_t)m->nprof, sizeof(pc_profile_t), &ok);
     m->table_t = (double*)zalloc((size_t)m->ntable, sizeof(double), &ok);
     m->table_v = (double*)zalloc((size_t)m->ntable, sizeof(double), &ok);
-    m->frames = (pc_frame_t*)zalloc((size_t)m->nframes, sizeof(pc_frame_t), &ok);
+    m->panels = (pc_panel_t*)zalloc((size_t)m->npanels, sizeof(pc_panel_t), &ok);
     m->arm_v = (int*)zalloc((size_t)m->n_arm_v, sizeof(int), &ok);
     m->params = (double*)zalloc((size_t)m->np, sizeof(double), &ok);
     m->u_extra = (double*)zalloc((size_t)m->nu, sizeof(double), &ok);
@@ -159,10 +159,13 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
     }
     memcpy(m->table_t, dp, (size_t)m->ntable * sizeof(double)); dp += m->ntable;
     memcpy(m->table_v, dp, (size_t)m->ntable * sizeof(double)); dp += m->ntable;
-    for (i = 0; i < m->nframes; i++) {
-        m->frames[i].joint = *ip++;
-        memcpy(m->frames[i].R, dp, 9 * sizeof(double)); memcpy(m->frames[i].p, dp + 9, 3 * sizeof(double));
-        dp += 12;
+    for (i = 0; i < m->npanels; i++) {
+        pc_panel_t* P = &m->panels[i];
+        P->root_joint = ip[0]; P->tip_joint = ip[1]; P->torsion_v = ip[2];
+        ip += 3;
+        memcpy(P->R, dp, 9 * sizeof(double)); memcpy(P->p, dp + 9, 3 * sizeof(double));
+        memcpy(P->tip, dp + 12, 3 * sizeof(double)); P->length = dp[15];
+        dp += 16;
     }
     for (i = 0; i < m->n_arm_v; i++) m->arm_v[i] = *ip++;
     memcpy(m->r_acc, dp, 3 * sizeof(double)); dp += 3;
@@ -187,7 +190,7 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
 }
 
 int pc_sizes(const pc_model_t* m, int* out) {
-    out[0] = m->nq; out[1] = m->nv; out[2] = m->nu; out[3] = m->np; out[4] = m->nz; out[5] = m->nframes;
+    out[0] = m->nq; out[1] = m->nv; out[2] = m->nu; out[3] = m->np; out[4] = m->nz; out[5] = m->npanels;
     out[6] = m->nj;
     return PC_OK;
 }

@@ -18,7 +18,7 @@
 
 #include <stddef.h>
 
-#define PC_LAYOUT_VERSION 3
+#define PC_LAYOUT_VERSION 4
 
 /* Symbols of the Python-facing library; an FMU build defines PC_API empty (only fmi2* are exported). */
 #ifndef PC_API
@@ -59,10 +59,13 @@ typedef struct {
     int pk, pd;      /* parameter index of the stiffness and damping scale (-1: none) */
 } pc_spring_t;
 
+/* A panel's output frames: its root frame (on the host body) and its tip point (on the last segment). */
 typedef struct {
-    int joint;
-    double R[9], p[3];
-} pc_frame_t;
+    int root_joint, tip_joint, torsion_v;
+    double R[9], p[3]; /* root frame placement in the root joint's frame */
+    double tip[3];     /* tip point in the tip joint's frame */
+    double length;
+} pc_panel_t;
 
 /* A Butcher tableau with a lower-triangular A. */
 typedef struct {
@@ -84,7 +87,7 @@ typedef struct {
 PC_API pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db);
 PC_API void pc_destroy(pc_model_t* m);
 PC_API const char* pc_error_message(const pc_model_t* m);
-PC_API int pc_sizes(const pc_model_t* m, int* out); /* nq, nv, nu, np, nz, nframes, nj */
+PC_API int pc_sizes(const pc_model_t* m, int* out); /* nq, nv, nu, np, nz, npanels, nj */
 PC_API int pc_set_params(pc_model_t* m, const double* p);
 PC_API int pc_get_params(const pc_model_t* m, double* p);
 PC_API void pc_set_input_offset(pc_model_t* m, const double* u_extra);
@@ -108,14 +111,17 @@ PC_API int pc_mass_matrix(pc_model_t* m, const double* q, double* M);
 /* outputs */
 PC_API int pc_measure(pc_model_t* m, const double* q, const double* v, double t, double* z, double* H, double* Hu,
                double* Hp);
-PC_API int pc_sample(pc_model_t* m, const double* q, const double* v, double t, double* ddq, double* frames,
+PC_API int pc_sample(pc_model_t* m, const double* q, const double* v, double t, double* ddq, double* panels,
               double* mech);
+PC_API void pc_panel_outputs(const pc_model_t* m, const double* q, double* out);
+PC_API void pc_panel_jacobian(const pc_model_t* m, double* J);
+PC_API void pc_panel_quat_jacobian(const pc_model_t* m, const double* q, double* J);
 
 /* integration */
 PC_API int pc_step(pc_model_t* m, double* q, double* v, double t, double h, double* quad);
 PC_API int pc_step_jacobian(pc_model_t* m, double* q, double* v, double t, double h, double* F, double* Fu, double* Fp);
 PC_API int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double h, int per_sample, int n_samples,
-                double* q_hist, double* v_hist, double* a_hist, double* frames_hist, double* mech_hist,
+                double* q_hist, double* v_hist, double* a_hist, double* panels_hist, double* mech_hist,
                 double* bal_hist, double* u_hist, volatile int* cancel);
 PC_API int pc_predict(pc_model_t* m, double* q, double* v, double t, double h, int n_steps, int want_jac, double* z,
                double* F, double* Fu, double* Fp, double* H, double* Hu, double* Hp);

@@ -1,15 +1,14 @@
 """Compile an FMU's C sources into its shared library with the system C compiler, and zip the FMU.
 
-The large generated Jacobian file is compiled with ``-O1`` (at ``-O2`` gcc takes minutes on it) in
-parallel with the rest (``-O2``): two compiler processes at most. Only the FMI functions are exported
-(``-fvisibility=hidden``, ``-Wl,-Bsymbolic``), so several of these FMUs coexist in one process.
+The sources are the compiled plant core (``dynamics/csrc``), the FMI wrapper and the generated data
+header, compiled with the core's flags, two compiler processes at most. Only the FMI functions are
+exported (``-fvisibility=hidden``, ``-Wl,-Bsymbolic``), so several of these FMUs coexist in one process.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-import shutil
 import subprocess
 import sys
 import zipfile
@@ -30,11 +29,14 @@ def platform_folder() -> tuple[str, str]:
 
 
 def find_compiler() -> str:
-    """The C compiler: ``$CC`` or ``gcc`` or ``cc``."""
-    for cand in (os.environ.get("CC"), "gcc", "cc"):
-        if cand and shutil.which(cand):
-            return shutil.which(cand)
-    raise FMIError("no C compiler found (set CC or install gcc)", function="compile")
+    """The C compiler (the compiled core's choice: ``$CC``, else ``gcc`` or ``cc``)."""
+    from postcapture.core.errors import CompileError
+    from postcapture.dynamics.compiled import compiler
+
+    try:
+        return compiler()
+    except CompileError as exc:
+        raise FMIError(str(exc), function="compile") from exc
 
 
 def _run(cmd: list[str], cwd: Path) -> subprocess.Popen:
@@ -45,38 +47,38 @@ def _run(cmd: list[str], cwd: Path) -> subprocess.Popen:
 def _wait(proc: subprocess.Popen, what: str, fmu: str) -> None:
     out, _ = proc.communicate()
     if proc.returncode != 0:
-        raise FMIError(f"compiling {what} failed:\n{out[-4000:]}", fmu=fmu, function="compile")
+        raise FMIError(f"compiling {what} failed:\n{out[-4000:]}\nfix: use a C99 compiler (gcc >= 5 or clang), "
+                       "e.g. set CC=gcc", fmu=fmu, function="compile")
 
 
-def compile_library(sources: Path, build: Path, out: Path, *, jac_file: str, fmu: str = "") -> float:
-    """Compile every ``*.c`` in ``sources`` and link ``out``; returns the wall time (s)."""
+def compile_library(sources: Path, build: Path, out: Path, *, fmu: str = "") -> float:
+    """Compile every ``*.c`` in ``sources`` (two at a time) and link ``out``; returns the wall time (s).
+
+    The flags are the compiled core's (:data:`postcapture.dynamics.compiled.CFLAGS`), so the FMU runs the
+    same arithmetic as the native process model; the core's symbols stay hidden (``PC_API`` empty).
+    """
     import time
 
+    from postcapture.dynamics.compiled import CFLAGS
+
     cc = find_compiler()
-    include = ["-I", str(sources)]
-    common = ["-c", "-fPIC", "-std=c99", "-fvisibility=hidden", "-w"]
+    common = ["-c", *CFLAGS, "-DPC_API=", "-w", "-I", str(sources)]
     build.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     files = sorted(p.name for p in sources.glob("*.c"))
-    big = _run(
-        [cc, *common, "-O1", *include, str(sources / jac_file), "-o", str(build / (jac_file + ".o"))], build
-    )
+    running: list = []
     try:
         for name in files:
-            if name == jac_file:
-                continue
-            _wait(
-                _run(
-                    [cc, *common, "-O2", *include, str(sources / name), "-o", str(build / (name + ".o"))],
-                    build,
-                ),
-                name,
-                fmu,
-            )
-        _wait(big, jac_file, fmu)
+            running.append((_run([cc, *common, str(sources / name), "-o", str(build / (name + ".o"))], build), name))
+            if len(running) == 2:
+                proc, what = running.pop(0)
+                _wait(proc, what, fmu)
+        for proc, what in running:
+            _wait(proc, what, fmu)
     except BaseException:
-        big.kill()
-        big.wait()
+        for proc, _ in running:
+            proc.kill()
+            proc.wait()
         raise
     out.parent.mkdir(parents=True, exist_ok=True)
     objects = [str(build / (n + ".o")) for n in files]

@@ -1,8 +1,9 @@
 """``export_fmu``: a scenario's plant as an FMI 2.0 co-simulation FMU with compiled C inside.
 
-Steps: build the plant (:func:`~postcapture.dynamics.build.build_system`), express it in CasADi
-(:class:`~postcapture.fmi.symbolic.plant.SymbolicPlant`), generate C, write the model data header and
-``modelDescription.xml``, compile with the system C compiler, write the mapping file, zip.
+Steps: build the plant (:func:`~postcapture.dynamics.build.build_system`), pack it for the compiled
+core (:func:`~postcapture.dynamics.packing.pack`), write the data header and ``modelDescription.xml``,
+compile the core's sources with the FMI wrapper, write the mapping file, zip. The FMU runs the same C
+as the native process model.
 """
 
 from __future__ import annotations
@@ -22,14 +23,14 @@ from pathlib import Path
 import numpy as np
 
 from postcapture.config.schema import Scenario
-from postcapture.fmi._extras import import_casadi, import_fmpy
+from postcapture.fmi._extras import import_fmpy
 from postcapture.fmi.mapping import JacobianOutputs, Mapping
 
 __all__ = ["ExportReport", "export_fmu"]
 
 logger = logging.getLogger(__name__)
 
-_RUNTIME = ("pc_core.c", "pc_step.c", "pc_core.h", "pc_types.h", "pc_fmi2.c")
+_RUNTIME = ("pc_fmi2.c",)
 _FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 MAPPING_RESOURCE = "resources/postcapture_mapping.toml"
 
@@ -51,13 +52,13 @@ class ExportReport:
     n_states, n_variables : int
         State size ``nx`` and number of FMI variables.
     seconds, seconds_codegen, seconds_compile : float
-        Wall times (s): total, CasADi code generation, C compilation.
+        Wall times (s): total, writing the sources, C compilation.
     c_bytes : int
-        Size of the generated C sources.
+        Size of the C sources.
     directional_derivatives, step_jacobian : bool
         Whether the FMU provides directional derivatives and the Jacobian outputs.
-    instructions : dict of str to int
-        CasADi instruction count of each generated function.
+    instructions : dict
+        Kept for compatibility (empty: nothing is generated per function any more).
     """
 
     path: Path
@@ -82,26 +83,6 @@ class ExportReport:
 def _identifier(text: str) -> str:
     ident = re.sub(r"[^A-Za-z0-9_]", "_", text)
     return ident if re.match(r"[A-Za-z_]", ident) else "m_" + ident
-
-
-def _dependencies(plant, interface) -> dict[int, list[int]]:
-    """Value references of the knowns (states, inputs) each state derivative and named output depends on."""
-    ca = import_casadi()
-    q, v, u, p = plant.symbols()
-    ddq = plant.acceleration(q, v, u, p)
-    outs = ca.vertcat(plant.state_derivative(q, v, ddq), plant.outputs(q, v, ddq))
-    sp = ca.jacobian_sparsity(outs, ca.vertcat(q, v, u))
-    rows, cols = sp.get_triplet()
-    x0, nx = interface.blocks["x"]
-    u0, _ = interface.blocks["u"]
-    dx0, _ = interface.blocks["dx"]
-    y0, ny = interface.blocks["y"]
-    known = [x0 + c if c < nx else u0 + (c - nx) for c in range(sp.size2())]
-    unknown = [dx0 + r for r in range(nx)] + [y0 + r for r in range(ny)]
-    deps: dict[int, list[int]] = {vr: [] for vr in unknown}
-    for r, c in zip(rows, cols, strict=True):
-        deps[unknown[r]].append(known[c])
-    return {k: sorted(v) for k, v in deps.items()}
 
 
 def export_fmu(
@@ -161,18 +142,18 @@ def export_fmu(
     ValueError
         For an unknown variant, integrator or FMI version.
     """
-    import_casadi()
     fmpy = import_fmpy()
     from postcapture import __version__
     from postcapture.config import load_scenario
     from postcapture.dynamics.build import build_system, initial_state
     from postcapture.dynamics.integrators import TABLEAUX
+
     from postcapture.fmi.export.c_header import write_c_header
     from postcapture.fmi.export.compiler import compile_library, platform_folder, zip_fmu
     from postcapture.fmi.export.interface import build_interface
     from postcapture.fmi.export.model_description import DescriptionInfo, write_model_description
-    from postcapture.fmi.symbolic.functions import generate_c
-    from postcapture.fmi.symbolic.plant import SymbolicPlant
+    from postcapture.dynamics.compiled import source_files
+    from postcapture.fmi.export.plant_info import ExportPlant
 
     say = progress or (lambda msg: None)
     if fmi_version != 2:
@@ -194,7 +175,7 @@ def export_fmu(
     system = build_system(scenario, variant, panel_segments=panel_segments, excitation=excitation)
     q0, v0 = initial_state(system)
     x0 = np.concatenate([q0, v0])
-    plant = SymbolicPlant(system)
+    plant = ExportPlant(system)
     key = hashlib.sha256(
         "|".join(
             [
@@ -215,23 +196,16 @@ def export_fmu(
     with tempfile.TemporaryDirectory(prefix="postcapture_fmu_") as tmp:
         root = Path(tmp) / "fmu"
         sources = root / "sources"
-        say("generating C with CasADi")
+        say("writing the sources")
         t0 = time.perf_counter()
-        gen = generate_c(plant, sources)
-        t_codegen = time.perf_counter() - t0
-        interface = build_interface(plant, x0, step_jacobian=step_jacobian, n_y=gen.n_y, n_z=gen.n_z)
-        header = write_c_header(
-            plant,
-            interface,
-            guid=guid,
-            tableau=TABLEAUX[integrator],
-            step=step,
-            profiles=system.inputs.profiles,
-            x0=x0,
-            n_jac_cols=gen.n_jac_cols,
-            directional=directional_derivatives,
-        )
-        (sources / "pc_model_data.h").write_text(header)
+        sources.mkdir(parents=True)
+        n_y = len(plant.output_signals())
+        interface = build_interface(plant, x0, step_jacobian=step_jacobian, n_y=n_y, n_z=3 + plant.n_arm)
+        header = write_c_header(plant, interface, guid=guid, tableau=TABLEAUX[integrator], step=step, x0=x0,
+                                directional=directional_derivatives)
+        (sources / "pc_fmu_data.h").write_text(header)
+        for name, text in source_files().items():
+            (sources / name).write_text(text)
         runtime = resources.files("postcapture.fmi") / "csrc"
         for name in _RUNTIME:
             (sources / name).write_text((runtime / name).read_text())
@@ -239,13 +213,13 @@ def export_fmu(
         for name in _FMI2_HEADERS:
             shutil.copy(c_code / name, sources / name)
         c_bytes = sum(p.stat().st_size for p in sources.glob("*.[ch]"))
+        t_codegen = time.perf_counter() - t0
         say("compiling the shared library")
         folder, suffix = platform_folder()
         t_compile = compile_library(
             sources,
             Path(tmp) / "build",
             root / "binaries" / folder / (ident + suffix),
-            jac_file="pc_model_jac.c",
             fmu=str(out_path),
         )
         say("writing modelDescription.xml and the mapping")
@@ -254,7 +228,7 @@ def export_fmu(
             model_identifier=ident,
             guid=guid,
             description=scenario.description or f"postcapture plant of scenario {scenario.name}",
-            generation_tool=f"postcapture {__version__} (CasADi {import_casadi().__version__})",
+            generation_tool=f"postcapture {__version__} (compiled plant core)",
             directional_derivatives=directional_derivatives,
             source_files=tuple(sorted(p.name for p in sources.glob("*.c"))),
             stop_time=scenario.simulation.duration,
@@ -263,7 +237,7 @@ def export_fmu(
             variant=variant,
             scenario=scenario.name,
         )
-        xml = write_model_description(interface, info, _dependencies(plant, interface))
+        xml = write_model_description(interface, info, None)
         (root / "modelDescription.xml").write_text(xml)
         mapping = _mapping(plant, interface, ident, guid, integrator, step)
         (root / "resources").mkdir(exist_ok=True)
@@ -292,7 +266,7 @@ def export_fmu(
         seconds_codegen=t_codegen,
         seconds_compile=t_compile,
         c_bytes=c_bytes,
-        instructions=dict(gen.functions),
+        instructions={},
     )
 
 

@@ -9,7 +9,7 @@ block                     causality   meaning
 ``q[i]``, ``v[i]``        output      the state ``x = [q, v]`` (continuous states, ``initial="exact"``)
 ``der(q[i])``, ...        local       ambient state derivatives (listed in ModelStructure/Derivatives)
 named outputs             output      ``q_BN_w`` ... ``accel_B_x`` ... ``arm_ddq_7``, tips, torsions
-parameters                parameter   ``target_mass``, ``k_<spring>``, ``d_<spring>`` (tunable)
+parameters                parameter   ``target_mass``, then the plant's parameter vector (tunable)
 ``force_x`` ... ``joint_n``  input    additive to the embedded excitation, held over a step
 ``x_corr[i]``             input       the state correction (applied when ``reset > 0.5``)
 ``reset``                 input       replace the state by ``x_corr`` at the start of ``fmi2DoStep``
@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from postcapture.config.excitation import CHASER_CHANNELS
-from postcapture.fmi.symbolic.plant import SymbolicPlant
+from postcapture.fmi.export.plant_info import ExportPlant
 
 __all__ = ["ScalarVariable", "Interface", "build_interface", "UNITS"]
 
@@ -41,6 +41,8 @@ UNITS = {
     "rad/s2": {"rad": 1, "s": -2},
     "1/s": {"s": -1},
     "kg": {"kg": 1},
+    "kg.m": {"kg": 1, "m": 1},
+    "kg.m2": {"kg": 1, "m": 2},
     "N": {"kg": 1, "m": 1, "s": -2},
     "N.m": {"kg": 1, "m": 2, "s": -2},
     "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
@@ -81,7 +83,7 @@ class Interface:
         return [v.name for v in self.variables[first : first + count]]
 
 
-def _coordinate_labels(plant: SymbolicPlant):
+def _coordinate_labels(plant: ExportPlant):
     """Description and units of each configuration and velocity coordinate."""
     model = plant.model
     q_lab, q_unit, v_lab, v_unit = [""] * plant.nq, [""] * plant.nq, [""] * plant.nv, [""] * plant.nv
@@ -107,7 +109,7 @@ _DER_UNIT = {"m": "m/s", "1": "1/s", "rad": "rad/s", "m/s": "m/s2", "rad/s": "ra
 
 
 def build_interface(
-    plant: SymbolicPlant, x0: np.ndarray, *, step_jacobian: bool, n_y: int, n_z: int
+    plant: ExportPlant, x0: np.ndarray, *, step_jacobian: bool, n_y: int, n_z: int
 ) -> Interface:
     """The variable table of an FMU of ``plant`` starting at ``x0`` (nx,)."""
     variables: list[ScalarVariable] = []

@@ -1,9 +1,9 @@
 """Write the FMI 2.0 ``modelDescription.xml`` of an exported FMU.
 
-ModelStructure: every output is listed; the state outputs without ``dependencies`` (as the FMI
-Reference FMUs do), the named outputs and the state derivatives with their exact dependencies on the
-states and inputs (the sparsity of the CasADi expressions), the Jacobian outputs with none
-(``dependencies=""``: they describe the last communication step, not the current knowns).
+ModelStructure: every output is listed; the state outputs, the named outputs and the state derivatives
+without ``dependencies`` (they may depend on every known), or with the dependencies given, the Jacobian
+outputs with none (``dependencies=""``: they describe the last communication step, not the current
+knowns).
 InitialUnknowns lists every calculated output and every state derivative.
 """
 
@@ -40,7 +40,7 @@ def _fmt(x: float) -> str:
 
 
 def write_model_description(
-    interface: Interface, info: DescriptionInfo, dependencies: dict[int, list[int]]
+    interface: Interface, info: DescriptionInfo, dependencies: dict[int, list[int]] | None = None
 ) -> str:
     """The XML text.
 
@@ -50,9 +50,10 @@ def write_model_description(
         The variable table.
     info : DescriptionInfo
         Names, GUID, capabilities and default experiment.
-    dependencies : dict of int to list of int
+    dependencies : dict of int to list of int, optional
         For each value reference of a state derivative or named output, the value references of the
-        knowns (states, inputs) it depends on.
+        knowns (states, inputs) it depends on; None leaves the attribute out (FMI 2.0: it may depend
+        on every known).
 
     Returns
     -------
@@ -139,7 +140,7 @@ def write_model_description(
         if v.causality != "output":
             continue
         attrs = {"index": str(index[v.valueReference])}
-        if v.block == "y":
+        if v.block == "y" and dependencies is not None:
             attrs["dependencies"] = " ".join(str(index[k]) for k in dependencies[v.valueReference])
         elif v.block == "jac":
             attrs["dependencies"] = ""
@@ -147,14 +148,10 @@ def write_model_description(
     ders = ET.SubElement(ms, "Derivatives")
     for v in interface.variables:
         if v.block == "dx":
-            ET.SubElement(
-                ders,
-                "Unknown",
-                {
-                    "index": str(index[v.valueReference]),
-                    "dependencies": " ".join(str(index[k]) for k in dependencies[v.valueReference]),
-                },
-            )
+            attrs = {"index": str(index[v.valueReference])}
+            if dependencies is not None:
+                attrs["dependencies"] = " ".join(str(index[k]) for k in dependencies[v.valueReference])
+            ET.SubElement(ders, "Unknown", attrs)
     init = ET.SubElement(ms, "InitialUnknowns")
     for v in interface.variables:
         if v.block in ("dx",) or (v.causality == "output" and v.initial == "calculated"):

@@ -1,0 +1,115 @@
+"""What an exported FMU needs to know about a plant: sizes, coordinates, parameters and named outputs.
+
+The plant itself runs in the compiled core (``dynamics/csrc``) inside the FMU; this only describes it
+for the variable table, the model description and the generated data header.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from postcapture.dynamics.packing import Packed, pack
+from postcapture.dynamics.system import System
+
+__all__ = ["Parameter", "OutputSignal", "ExportPlant"]
+
+_KIND = {"JointModelFreeFlyer": -1, "JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One tunable parameter of the FMU."""
+
+    name: str
+    value: float
+    unit: str
+    description: str
+    min: float | None = None
+
+
+@dataclass(frozen=True)
+class OutputSignal:
+    """One named scalar output."""
+
+    name: str
+    unit: str
+    description: str
+
+
+def _parameter_unit(name: str) -> tuple[str, str]:
+    field = name.split(".", 1)[1]
+    if field == "m":
+        return "kg", "target hub mass (nominal frame T)"
+    if field.startswith("mc_"):
+        return "kg.m", f"target hub first moment of mass, {field[3:]} (nominal frame T)"
+    if field.startswith("I_"):
+        return "kg.m2", f"target hub inertia {field[2:]} about T's origin"
+    return "1", f"{name.replace('_', ' ')} (factor, nominal 1)"
+
+
+class ExportPlant:
+    """A built system as the FMU export sees it.
+
+    Parameters
+    ----------
+    system : System
+        A system from :func:`postcapture.dynamics.build.build_system`; its current parameters become the
+        FMU's defaults.
+    """
+
+    def __init__(self, system: System):
+        model = system.model
+        layout = system.layout
+        if not layout.free_flyer:
+            raise ValueError("the FMU export needs a free-flyer chaser")
+        self.system = system
+        self.model = model
+        self.layout = layout
+        self.packed: Packed = pack(system)
+        self.nq, self.nv, self.n_u = model.nq, model.nv, system.n_u
+        self.nx = self.nq + self.nv
+        self.n_arm = layout.n_arm
+        self.arm_v = np.asarray(layout.arm_v, dtype=int)
+        self.has_target = layout.has_target
+        self.free_flyer = True
+        self.joints = []
+        for i in range(1, model.njoints):
+            short = model.joints[i].shortname()
+            if short not in _KIND:
+                raise ValueError(f"joint {model.names[i]!r}: unsupported joint type {short} (free flyer, RX, RY, RZ)")
+            M = model.jointPlacements[i]
+            self.joints.append((i, int(model.parents[i]), _KIND[short], model.joints[i].idx_q, model.joints[i].idx_v,
+                                M.rotation.copy(), M.translation.copy()))
+        params = []
+        if self.has_target:
+            params.append(Parameter("target_mass", float(system.target_mass), "kg",
+                                    "total target mass, hub plus panels (sets the hub's mass at a fixed centre of mass "
+                                    "and inertia about it)", min=float(layout.target_panel_mass)))
+        else:
+            params.append(Parameter("target_mass", 0.0, "kg", "no target in this plant", min=0.0))
+        for name, value in zip(system.parameter_names, system.parameters(), strict=True):
+            unit, what = _parameter_unit(name)
+            lo = 0.0 if unit == "1" or name == "target.m" else None
+            params.append(Parameter(name, float(value), unit, what, min=lo))
+        self.parameters = params
+        self.n_p = len(params)
+
+    def output_signals(self) -> list[OutputSignal]:
+        """Names, units and meanings of the named outputs, in the FMU's order."""
+        xyz = ("x", "y", "z")
+        sig = [OutputSignal(f"q_BN_{c}", "1", f"chaser attitude quaternion q_BN, component {c} (scalar first, w >= 0)")
+               for c in ("w", "x", "y", "z")]
+        sig += [OutputSignal(f"omega_BN_B_{c}", "rad/s", f"chaser body rate, B relative to N, B component {c}") for c in xyz]
+        sig += [OutputSignal(f"r_BN_N_{c}", "m", f"chaser origin position in N, component {c}") for c in xyz]
+        sig += [OutputSignal(f"accel_B_{c}", "m/s2", f"chaser acceleration at the accelerometer point, B component {c}")
+                for c in xyz]
+        for label, unit, what in (("arm_q", "rad", "angle"), ("arm_dq", "rad/s", "rate"), ("arm_ddq", "rad/s2", "acceleration")):
+            sig += [OutputSignal(f"{label}_{i + 1}", unit, f"arm joint {i + 1} {what} (link side; zero when locked)")
+                    for i in range(self.n_arm)]
+        for p in self.layout.panels:
+            sig += [OutputSignal(f"tip_{p.name}_{c}", "m", f"tip deflection of {p.name} in its root frame, component {c}")
+                    for c in xyz]
+            sig.append(OutputSignal(f"torsion_{p.name}", "rad", f"root torsion angle of {p.name}"))
+        return sig
