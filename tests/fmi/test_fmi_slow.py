@@ -5,7 +5,7 @@ import pytest
 
 import fmpy
 
-from fmi_helpers import rel, tight_native  # noqa: E402
+from fmi_helpers import rel, native_model  # noqa: E402
 
 from postcapture.dynamics.build import build_system  # noqa: E402
 from postcapture.fmi import FMUProcessModel, export_fmu  # noqa: E402
@@ -21,7 +21,7 @@ def test_whole_run_matches_native(envisat, envisat_fmu):
     the FMU's ABA sums in another order. Hence 1e-6 here; the 20 s comparison holds 1e-8.
     """
     system = build_system(envisat)
-    native = tight_native(system, 0.1)
+    native = native_model(system, 0.1)
     x = native.initial_state()
     n = int(round(envisat.simulation.duration / 0.1))
     X = np.zeros((x.size, n + 1))
@@ -46,7 +46,7 @@ def test_flexible_fmu_without_derivatives(envisat, tmp_path):
     """
     report = export_fmu(envisat, tmp_path / "plain.fmu", directional_derivatives=False, step_jacobian=False)
     system = build_system(envisat)
-    native = tight_native(system, 0.1)
+    native = native_model(system, 0.1)
     x = native.initial_state()
     for k in range(250):
         x = native.predict(x, k * 0.1, 0.1).x
