@@ -103,6 +103,7 @@ def test_bad_option_value_exits_1(capsys):
     assert "expected a positive integer" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # compiles the core from scratch and runs a short main job (about 30 s)
 def test_bench_json_keys(capsys):
     code, out, _ = run(capsys, "bench", "--duration", "0.2", "--json")
     assert code == 0

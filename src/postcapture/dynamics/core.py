@@ -183,15 +183,19 @@ class CompiledPlant:
                                                _ptr(Fp)), "step Jacobian")
         return q1, v1, F, Fu, Fp
 
-    def predict(self, q, v, t: float, h: float, n_steps: int, jacobians: bool):
-        """``n_steps`` steps then the measurement: ``(q, v, z, F, Fu, Fp, H, Hu, Hp)`` (None without Jacobians)."""
+    def predict(self, q, v, t: float, h: float, n_steps: int, jacobians: bool, inputs: bool = False):
+        """``n_steps`` steps then the measurement: ``(q, v, z, F, Fu, Fp, H, Hu, Hp)``.
+
+        The Jacobians are None without ``jacobians``, and ``Fu``, ``Hu`` (constant input offset) also
+        without ``inputs`` (fewer columns to carry through the stages).
+        """
         q1, v1 = _vec(q, self.nq, "q").copy(), _vec(v, self.nv, "v").copy()
         z = np.zeros(self.nz)
         out = [None] * 6
         if jacobians:
             nt, nz = self.nt, self.nz
-            out = [np.zeros((nt, nt)), np.zeros((nt, self.nu)), np.zeros((nt, self.np)), np.zeros((nz, nt)),
-                   np.zeros((nz, self.nu)), np.zeros((nz, self.np))]
+            out = [np.zeros((nt, nt)), np.zeros((nt, self.nu)) if inputs else None, np.zeros((nt, self.np)),
+                   np.zeros((nz, nt)), np.zeros((nz, self.nu)) if inputs else None, np.zeros((nz, self.np))]
         self._check(self._lib.pc_predict(self._h, _ptr(q1), _ptr(v1), float(t), float(h), int(n_steps), int(jacobians),
                                          _ptr(z), *(_ptr(a) for a in out)), "prediction")
         return (q1, v1, z, *out)

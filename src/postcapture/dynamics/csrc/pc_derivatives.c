@@ -333,22 +333,19 @@ int pc_derivatives(pc_model_t* m, const double* q, const double* v, const double
     return PC_OK;
 }
 
-/* Rows `rows` (nr of them) of the partials of ddq: Aq, Av (nr x nv), Au (nr x nu), Ap (nr x np), from the
- * force-form partials and the same rows of M^-1 (columns of the symmetric inverse, one O(n) solve each). */
-int pc_derivative_rows(pc_model_t* m, const double* q, const double* v, const double* u, const int* rows, int nr,
-                       double* ddq, double* Aq, double* Av, double* Au, double* Ap) {
+/* Rows `rows` (nr of them) of the partials of ddq at q from the force-form partials Cq, Cv, Tp: Aq, Av
+ * (nr x nv), Au (nr x nu, when given), Ap (nr x np), with the same rows of M^-1 (columns of the
+ * symmetric inverse, one O(n) solve each). */
+int pc_rows_from_partials(pc_model_t* m, const double* q, const double* Cq, const double* Cv, const double* Tp,
+                          const int* rows, int nr, double* Aq, double* Av, double* Au, double* Ap) {
     int nv = m->nv, nu = m->nu, np = m->np, i, k, c, err;
-    double* Cq = (double*)malloc((2 * (size_t)nv * nv + (size_t)nv * (np + 1) + (size_t)nv) * sizeof(double));
-    double *Cv, *Tp, *mr;
+    double* mr = (double*)malloc((size_t)nv * sizeof(double));
     pc_factor_t F;
-    if (!Cq) return PC_ERR_MEMORY;
-    Cv = Cq + (size_t)nv * nv; Tp = Cv + (size_t)nv * nv; mr = Tp + (size_t)nv * np;
-    err = pc_force_partials(m, q, v, u, ddq, Cq, Cv, Tp);
-    if (err) { free(Cq); return err; }
+    if (!mr) return PC_ERR_MEMORY;
     F.R = m->jac_work; F.p = F.R + 9 * m->nj; F.U = F.p + 3 * m->nj; F.Dinv = F.U + 6 * m->nj; F.valid = 0;
     err = pc_factorize(m, q, NULL, &F);
     m->n_factor--;
-    if (err) { free(Cq); return err; }
+    if (err) { free(mr); return err; }
     for (i = 0; i < nr; i++) {
         memset(mr, 0, (size_t)nv * sizeof(double));
         mr[rows[i]] = 1.0;
@@ -359,17 +356,30 @@ int pc_derivative_rows(pc_model_t* m, const double* q, const double* v, const do
             Aq[(size_t)i * nv + c] = -a;
             Av[(size_t)i * nv + c] = -b;
         }
-        for (c = 0; c < nu; c++) {
-            double a = 0.0;
-            for (k = 0; k < nv; k++) a += mr[k] * m->B[(size_t)k * nu + c];
-            Au[(size_t)i * nu + c] = a;
-        }
+        if (Au)
+            for (c = 0; c < nu; c++) {
+                double a = 0.0;
+                for (k = 0; k < nv; k++) a += mr[k] * m->B[(size_t)k * nu + c];
+                Au[(size_t)i * nu + c] = a;
+            }
         for (c = 0; c < np; c++) {
             double a = 0.0;
             for (k = 0; k < nv; k++) a += mr[k] * Tp[(size_t)k * np + c];
             Ap[(size_t)i * np + c] = a;
         }
     }
-    free(Cq);
+    free(mr);
     return PC_OK;
+}
+
+/* The same from (q, v, u): the force-form partials are computed first. */
+int pc_derivative_rows(pc_model_t* m, const double* q, const double* v, const double* u, const int* rows, int nr,
+                       double* ddq, double* Aq, double* Av, double* Au, double* Ap) {
+    int nv = m->nv, np = m->np, err;
+    double* Cq = (double*)malloc((2 * (size_t)nv * nv + (size_t)nv * (np + 1)) * sizeof(double));
+    if (!Cq) return PC_ERR_MEMORY;
+    err = pc_force_partials(m, q, v, u, ddq, Cq, Cq + (size_t)nv * nv, Cq + 2 * (size_t)nv * nv);
+    if (!err) err = pc_rows_from_partials(m, q, Cq, Cq + (size_t)nv * nv, Cq + 2 * (size_t)nv * nv, rows, nr, Aq, Av, Au, Ap);
+    free(Cq);
+    return err;
 }

@@ -76,6 +76,8 @@ void pc_world_placements(pc_model_t* m);
 void pc_joint_inertia_matrix(const double* pi, double* I6);
 void pc_add_transformed_inertia(const double* R, const double* p, const double* Ia, double* Ip);
 int pc_crba(pc_model_t* m, const double* q, double* M);
+int pc_rows_from_partials(pc_model_t* m, const double* q, const double* Cq, const double* Cv, const double* Tp,
+                          const int* rows, int nr, double* Aq, double* Av, double* Au, double* Ap);
 int pc_derivative_rows(pc_model_t* m, const double* q, const double* v, const double* u, const int* rows, int nr,
                        double* ddq, double* Aq, double* Av, double* Au, double* Ap);
 int pc_force_partials(pc_model_t* m, const double* q, const double* v, const double* u, double* ddq, double* Cq,

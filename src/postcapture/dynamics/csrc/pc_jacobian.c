@@ -17,15 +17,15 @@
 #include "pc_internal.h"
 
 typedef struct {
-    int nv, nt, nc;
+    int nv, nt, nc, ncu; /* ncu: input columns carried (nu, or 0 when Fu is not wanted) */
     double *dK, *dZ, *R0, *Aq, *Av, *Au, *Ap, *W, *M, *buf;
 } sens_t;
 
-static int sens_alloc(const pc_model_t* m, sens_t* W) {
-    int nv = m->nv, nt = 2 * nv, nc = nt + m->nu + m->np;
+static int sens_alloc(const pc_model_t* m, sens_t* W, int with_inputs) {
+    int nv = m->nv, nt = 2 * nv, ncu = with_inputs ? m->nu : 0, nc = nt + ncu + m->np;
     size_t n = (size_t)PC_MAX_STAGES * nt * nc + 3 * (size_t)nt * nc + 3 * (size_t)nv * nv + (size_t)nv * m->nu +
                (size_t)nv * m->np + (size_t)nv * nc + 16;
-    W->nv = nv; W->nt = nt; W->nc = nc;
+    W->nv = nv; W->nt = nt; W->nc = nc; W->ncu = ncu;
     W->buf = (double*)calloc(n, sizeof(double));
     if (!W->buf) return PC_ERR_MEMORY;
     W->dK = W->buf;
@@ -41,7 +41,7 @@ static int sens_alloc(const pc_model_t* m, sens_t* W) {
 }
 
 static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int i, const double* q, double h) {
-    int nv = W->nv, nt = W->nt, nc = W->nc, nu = m->nu, np = m->np, rf = m->n_root_v;
+    int nv = W->nv, nt = W->nt, nc = W->nc, nu = m->nu, ncu = W->ncu, np = m->np, rf = m->n_root_v;
     int r, c, k, j, err;
     double hg = h * m->tab.A[i][i];
     double* dK = W->dK + (size_t)i * nt * nc;
@@ -83,8 +83,8 @@ static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int
                 for (k = rf; k < nv; k++) t += W->Aq[(size_t)r * nv + k] * dZ[(size_t)k * nc + c];
                 for (k = 0; k < nv; k++) t += W->Av[(size_t)r * nv + k] * dZ[(size_t)(nv + k) * nc + c];
                 if (c < nv) t += W->Aq[(size_t)r * nv + c];
-                else if (c >= nt && c < nt + nu) t += W->Au[(size_t)r * nu + (c - nt)];
-                else if (c >= nt + nu) t += W->Ap[(size_t)r * np + (c - nt - nu)];
+                else if (c >= nt && c < nt + ncu) t += W->Au[(size_t)r * nu + (c - nt)];
+                else if (c >= nt + ncu) t += W->Ap[(size_t)r * np + (c - nt - ncu)];
                 dK[(size_t)(nv + r) * nc + c] = t;
             }
         return PC_OK;
@@ -100,8 +100,8 @@ static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int
             for (c = 0; c < nc; c++) {
                 double s = 0.0;
                 if (c < nv) s = -hg * Cq[(size_t)r * nv + c];
-                else if (c >= nt && c < nt + nu) s = hg * m->B[(size_t)r * nu + (c - nt)];
-                else if (c >= nt + nu) s = hg * Tp[(size_t)r * np + (c - nt - nu)];
+                else if (c >= nt && c < nt + ncu) s = hg * m->B[(size_t)r * nu + (c - nt)];
+                else if (c >= nt + ncu) s = hg * Tp[(size_t)r * np + (c - nt - ncu)];
                 Wr[c] = s;
             }
             for (k = 0; k < nv; k++) {
@@ -148,7 +148,7 @@ static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int
 /* One step with its Jacobian: Fx (nt x nt), Fu (nt x nu), Fp (nt x np), all row-major. */
 static int step_with_jacobian(pc_model_t* m, double* q, double* v, double t, double h, sens_t* W, double* Fx,
                               double* Fu, double* Fp, int warm) {
-    int nv = m->nv, nt = 2 * nv, nc = W->nc, s = m->tab.s, nu = m->nu, np = m->np, rf = m->n_root_v;
+    int nv = m->nv, nt = 2 * nv, nc = W->nc, s = m->tab.s, nu = m->nu, ncu = W->ncu, np = m->np, rf = m->n_root_v;
     int i, r, c, k, err;
     pc_stages_t S;
     double* xi_end = (double*)malloc((size_t)nv * sizeof(double));
@@ -190,8 +190,8 @@ static int step_with_jacobian(pc_model_t* m, double* q, double* v, double t, dou
         for (r = rf; r < nv; r++) out[(size_t)r * nc + r] += 1.0;
         for (r = 0; r < nt; r++) {
             if (Fx) memcpy(Fx + (size_t)r * nt, out + (size_t)r * nc, (size_t)nt * sizeof(double));
-            if (Fu) memcpy(Fu + (size_t)r * nu, out + (size_t)r * nc + nt, (size_t)nu * sizeof(double));
-            if (Fp && np) memcpy(Fp + (size_t)r * np, out + (size_t)r * nc + nt + nu, (size_t)np * sizeof(double));
+            if (Fu && ncu) memcpy(Fu + (size_t)r * nu, out + (size_t)r * nc + nt, (size_t)nu * sizeof(double));
+            if (Fp && np) memcpy(Fp + (size_t)r * np, out + (size_t)r * nc + nt + ncu, (size_t)np * sizeof(double));
         }
     }
 out:
@@ -204,15 +204,25 @@ out:
 int pc_step_jacobian(pc_model_t* m, double* q, double* v, double t, double h, double* F, double* Fu, double* Fp) {
     sens_t W;
     int err;
-    if (sens_alloc(m, &W)) return PC_ERR_MEMORY;
+    if (sens_alloc(m, &W, Fu != NULL)) return PC_ERR_MEMORY;
     err = step_with_jacobian(m, q, v, t, h, &W, F, Fu, Fp, 0);
     free(W.buf);
     return err;
 }
 
 /* z and its Jacobians at (q, v, t): H (nz x 2nv), Hu (nz x nu), Hp (nz x np); NULL to skip. */
+static int measure_with(pc_model_t* m, const double* q, const double* v, double t, double* z, double* H, double* Hu,
+                        double* Hp, const sens_t* W);
+
 int pc_measure(pc_model_t* m, const double* q, const double* v, double t, double* z, double* H, double* Hu,
                double* Hp) {
+    return measure_with(m, q, v, t, z, H, Hu, Hp, NULL);
+}
+
+/* With W (the last step's sensitivities, whose last implicit stage sits at (q, v) with the same inputs)
+ * the force-form partials of that stage are reused instead of recomputed. */
+static int measure_with(pc_model_t* m, const double* q, const double* v, double t, double* z, double* H, double* Hu,
+                        double* Hp, const sens_t* W) {
     int nv = m->nv, nu = m->nu, np = m->np, nz = m->nz, nt = 2 * nv, r, c, k, err;
     double* u = (double*)malloc(((size_t)nu + 1) * sizeof(double));
     double* ddq = (double*)malloc((size_t)nv * sizeof(double));
@@ -234,7 +244,12 @@ int pc_measure(pc_model_t* m, const double* q, const double* v, double t, double
         if (m->n_arm_v > 64 || !m->free_flyer) { err = PC_ERR_ARG; pc_set_error(m, "measurement: needs a free-flyer root and at most 64 arm joints"); goto out; }
         for (jr = 0; jr < 6; jr++) rows[nr++] = jr;
         for (jr = 0; jr < m->n_arm_v; jr++) rows[nr++] = m->arm_v[jr];
-        err = pc_derivative_rows(m, q, v, u, rows, nr, ddq, Aq, Av, Au, Ap);
+        if (W) {
+            err = pc_accel(m, q, v, u, ddq);
+            if (!err) err = pc_rows_from_partials(m, q, W->Aq, W->Av, W->Ap, rows, nr, Aq, Av, Hu ? Au : NULL, Ap);
+        } else {
+            err = pc_derivative_rows(m, q, v, u, rows, nr, ddq, Aq, Av, Hu ? Au : NULL, Ap);
+        }
         if (err) goto out;
     }
     pc_measurement(m, q, v, ddq, z);
@@ -303,7 +318,7 @@ out:
  * step Jacobians (F nt x nt, Fu nt x nu, Fp nt x np) and the measurement Jacobians. */
 int pc_predict(pc_model_t* m, double* q, double* v, double t, double h, int n_steps, int want_jac, double* z,
                double* F, double* Fu, double* Fp, double* H, double* Hu, double* Hp) {
-    int nv = m->nv, nt = 2 * nv, nu = m->nu, np = m->np, j, r, c, k, err = PC_OK;
+    int nv = m->nv, nt = 2 * nv, nu = Fu ? m->nu : 0, np = m->np, j, r, c, k, err = PC_OK;
     sens_t W;
     double *Fs = NULL, *Fus = NULL, *Fps = NULL, *T = NULL;
     m->have_prev = 0;
@@ -312,13 +327,13 @@ int pc_predict(pc_model_t* m, double* q, double* v, double t, double h, int n_st
         if (!err) err = pc_measure(m, q, v, t + n_steps * h, z, NULL, NULL, NULL);
         return err;
     }
-    if (sens_alloc(m, &W)) return PC_ERR_MEMORY;
+    if (sens_alloc(m, &W, Fu != NULL)) return PC_ERR_MEMORY;
     Fs = (double*)malloc(((size_t)nt * nt + (size_t)nt * nu + (size_t)nt * np + (size_t)nt * (nt + nu + np) + 1) * sizeof(double));
     if (!Fs) { free(W.buf); return PC_ERR_MEMORY; }
     Fus = Fs + (size_t)nt * nt; Fps = Fus + (size_t)nt * nu; T = Fps + (size_t)nt * np;
     for (j = 0; j < n_steps; j++) {
         double* ox = j ? Fs : F;
-        double* ou = j ? Fus : Fu;
+        double* ou = Fu ? (j ? Fus : Fu) : NULL;
         double* op = j ? Fps : Fp;
         err = step_with_jacobian(m, q, v, t + j * h, h, &W, ox, ou, op, j > 0);
         if (err) goto out;
@@ -336,12 +351,29 @@ int pc_predict(pc_model_t* m, double* q, double* v, double t, double h, int n_st
                 }
             for (r = 0; r < nt; r++) {
                 memcpy(F + (size_t)r * nt, T + (size_t)r * ncol, (size_t)nt * sizeof(double));
-                memcpy(Fu + (size_t)r * nu, T + (size_t)r * ncol + nt, (size_t)nu * sizeof(double));
+                if (nu) memcpy(Fu + (size_t)r * nu, T + (size_t)r * ncol + nt, (size_t)nu * sizeof(double));
                 if (np) memcpy(Fp + (size_t)r * np, T + (size_t)r * ncol + nt + nu, (size_t)np * sizeof(double));
             }
         }
     }
-    err = pc_measure(m, q, v, t + n_steps * h, z, H, Hu, Hp);
+    {
+        /* the last stage of a stiffly accurate method with c = 1 is the measurement point; its partials
+         * serve when the inputs there have no jump (left limit = value) */
+        const sens_t* reuse = NULL;
+        int s_last = m->tab.s - 1;
+        if (m->tab.stiffly_accurate && m->tab.c[s_last] == 1.0 && m->tab.A[s_last][s_last] != 0.0) {
+            double* ul = (double*)malloc(2 * ((size_t)m->nu + 1) * sizeof(double));
+            if (ul) {
+                int same = 1, i;
+                pc_inputs(m, t + n_steps * h, 1, ul);
+                pc_inputs(m, t + n_steps * h, 0, ul + m->nu + 1);
+                for (i = 0; i < m->nu; i++) same &= ul[i] == ul[m->nu + 1 + i];
+                if (same) reuse = &W;
+                free(ul);
+            }
+        }
+        err = measure_with(m, q, v, t + n_steps * h, z, H, Hu, Hp, reuse);
+    }
 out:
     free(Fs);
     free(W.buf);

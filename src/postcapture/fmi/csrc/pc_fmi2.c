@@ -598,14 +598,14 @@ FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
     {
         double z[PC_NZ];
 #if PC_STEP_JACOBIAN
-        double* Fx = NULL, *G = NULL, *Hm = NULL, *Hp = NULL, *Fu = NULL, *Hu = NULL;
+        double* Fx = NULL, *G = NULL, *Hm = NULL, *Hp = NULL;
         if (want_jac) {
             Fx = (double*)malloc(((size_t)NT * NT + (size_t)NT * (PC_NP + PC_NU + 1) + (size_t)PC_NZ * NT +
                                   (size_t)PC_NZ * (PC_NP + PC_NU + 1)) * sizeof(double));
             if (!Fx) return fail(F, "fmi2DoStep", "out of memory");
-            G = Fx + NT * NT; Fu = G + NT * (PC_NP + 1); Hm = Fu + NT * PC_NU; Hp = Hm + PC_NZ * NT; Hu = Hp + PC_NZ * (PC_NP + 1);
+            G = Fx + NT * NT; Hm = G + NT * (PC_NP + 1); Hp = Hm + PC_NZ * NT;
         }
-        if (pc_predict(F->m, x, x + NQ, t, PC_STEP, (int)n, want_jac, z, Fx, Fu, G, Hm, Hu, Hp)) {
+        if (pc_predict(F->m, x, x + NQ, t, PC_STEP, (int)n, want_jac, z, Fx, NULL, G, Hm, NULL, Hp)) {
             free(Fx);
             F->c.mode = MODE_ERROR;
             return fail(F, "fmi2DoStep", "the step from t = %.17g s failed: %s", t, pc_error_message(F->m));
