@@ -628,12 +628,32 @@ void pc_measurement(pc_model_t* m, const double* q, const double* v, const doubl
     double wv[3], dwr[3], wr[3], wwr[3];
     int i;
     (void)q;
+    if (!m->free_flyer) { /* a chain on a fixed base: no chaser to carry an accelerometer */
+        for (i = 0; i < m->nz; i++) z[i] = 0.0;
+        return;
+    }
     cross3(v + 3, v, wv);
     cross3(ddq + 3, m->r_acc, dwr);
     cross3(v + 3, m->r_acc, wr);
     cross3(v + 3, wr, wwr);
     for (i = 0; i < 3; i++) z[i] = ddq[i] + wv[i] + dwr[i] + wwr[i];
     for (i = 0; i < m->n_arm; i++) z[3 + i] = i < m->n_arm_v ? ddq[m->arm_v[i]] : 0.0;
+}
+
+/* World placement of a panel's root frame (its joint may be the universe, -1, for a chain on a fixed base). */
+static void root_frame(const pc_model_t* m, const pc_panel_t* P, double* Rr, double* pr) {
+    int k;
+    if (P->root_joint < 0) {
+        memcpy(Rr, P->R, 9 * sizeof(double));
+        memcpy(pr, P->p, 3 * sizeof(double));
+        return;
+    }
+    {
+        double t3[3];
+        mm3(m->Ro + 9 * P->root_joint, P->R, Rr);
+        mv3(m->Ro + 9 * P->root_joint, P->p, t3);
+        for (k = 0; k < 3; k++) pr[k] = m->po[3 * P->root_joint + k] + t3[k];
+    }
 }
 
 /* Per panel: the tip deflection in the panel's root frame (3, the undeformed tip at (length, 0, 0)
@@ -643,9 +663,7 @@ void pc_panel_outputs(const pc_model_t* m, const double* q, double* out) {
     for (i = 0; i < m->npanels; i++) {
         const pc_panel_t* P = &m->panels[i];
         double Rr[9], pr[3], pt[3], d[3], t3[3];
-        mm3(m->Ro + 9 * P->root_joint, P->R, Rr);
-        mv3(m->Ro + 9 * P->root_joint, P->p, t3);
-        for (k = 0; k < 3; k++) pr[k] = m->po[3 * P->root_joint + k] + t3[k];
+        root_frame(m, P, Rr, pr);
         mv3(m->Ro + 9 * P->tip_joint, P->tip, t3);
         for (k = 0; k < 3; k++) { pt[k] = m->po[3 * P->tip_joint + k] + t3[k]; d[k] = pt[k] - pr[k]; }
         mtv3(Rr, d, out + 4 * i);
@@ -662,9 +680,9 @@ void pc_panel_jacobian(const pc_model_t* m, double* J) {
     memset(J, 0, (size_t)4 * m->npanels * nv * sizeof(double));
     for (i = 0; i < m->npanels; i++) {
         const pc_panel_t* P = &m->panels[i];
-        double Rr[9], pt[3], t3[3];
+        double Rr[9], pr[3], pt[3], t3[3];
         int j = P->tip_joint;
-        mm3(m->Ro + 9 * P->root_joint, P->R, Rr);
+        root_frame(m, P, Rr, pr);
         mv3(m->Ro + 9 * P->tip_joint, P->tip, t3);
         for (k = 0; k < 3; k++) pt[k] = m->po[3 * P->tip_joint + k] + t3[k];
         while (j >= 0 && j != P->root_joint) {
@@ -706,9 +724,7 @@ void pc_panel_quat_jacobian(const pc_model_t* m, const double* q, double* J) {
     for (i = 0; i < m->npanels; i++) {
         const pc_panel_t* P = &m->panels[i];
         double Rr[9], pr[3], pt[3], d[3], t3[3], A[9], b[3];
-        mm3(m->Ro + 9 * P->root_joint, P->R, Rr);
-        mv3(m->Ro + 9 * P->root_joint, P->p, t3);
-        for (k = 0; k < 3; k++) pr[k] = m->po[3 * P->root_joint + k] + t3[k];
+        root_frame(m, P, Rr, pr);
         mv3(m->Ro + 9 * P->tip_joint, P->tip, t3);
         for (k = 0; k < 3; k++) { pt[k] = m->po[3 * P->tip_joint + k] + t3[k]; d[k] = pt[k] - pr[k]; }
         for (r = 0; r < 3; r++)
