@@ -1,13 +1,17 @@
 """Shared fixtures: the default scenario as data, small scenarios built from dicts."""
 
 import os
+import sys
 import tomllib
+from pathlib import Path
 from importlib import resources
 
 # Small matrices are faster on one BLAS thread, and timings are steadier.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import pytest  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))  # the Python oracle of the compiled core: tests/lie_oracle.py
 
 
 @pytest.fixture

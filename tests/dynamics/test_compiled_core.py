@@ -4,12 +4,15 @@ the Python Lie-group integrator (the oracle) and closed forms."""
 import numpy as np
 import pinocchio as pin
 import pytest
+from lie_oracle import make_integrator
 
 from postcapture.core.errors import CompileError
 from postcapture.dynamics import compiled
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
-from postcapture.dynamics.integrators import TABLEAUX, make_integrator
+from lie_oracle import make_integrator
+
+from postcapture.dynamics.integrators import TABLEAUX
 from postcapture.dynamics.process_model import NativeProcessModel
 
 

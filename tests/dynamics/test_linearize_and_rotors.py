@@ -5,7 +5,7 @@ import pytest
 from scipy.linalg import expm
 
 from postcapture.dynamics.build import build_system, initial_state
-from postcapture.dynamics.integrators import make_integrator
+from lie_oracle import make_integrator
 from postcapture.dynamics.modes import linearize
 from postcapture.dynamics.simulate import simulate_system
 

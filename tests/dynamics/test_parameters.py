@@ -7,7 +7,7 @@ import pytest
 from postcapture.core.errors import DomainError
 from postcapture.dynamics.bodies import MassProperties
 from postcapture.dynamics.build import build_system, initial_state
-from postcapture.dynamics.integrators import make_integrator
+from lie_oracle import make_integrator
 from postcapture.dynamics.parameters import dmass_direction, dynamic_parameters, mass_properties, transform_matrix
 from postcapture.dynamics.process_model import NativeProcessModel
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from postcapture.dynamics.build import build_system, initial_state
-from postcapture.dynamics.integrators import make_integrator
+from lie_oracle import make_integrator
 
 
 def _state_after(system, integ, seconds):

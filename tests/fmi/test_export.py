@@ -9,7 +9,7 @@ import fmpy
 from fmi_helpers import rel  # noqa: E402
 
 from postcapture.dynamics.build import build_system, initial_state  # noqa: E402
-from postcapture.dynamics.integrators import make_integrator  # noqa: E402
+from lie_oracle import make_integrator  # noqa: E402
 from postcapture.dynamics.outputs import OutputRecorder  # noqa: E402
 from postcapture.dynamics.simulate import simulate_system  # noqa: E402
 from postcapture.fmi.mapping import Mapping  # noqa: E402
