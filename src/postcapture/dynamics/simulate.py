@@ -18,7 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from postcapture.config.schema import Scenario
-from postcapture.dynamics.accuracy import choose_step
+from postcapture.dynamics.accuracy import TRUTH_NEWTON, choose_step
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.outputs import OutputSpec, fill_outputs, output_specs
@@ -59,6 +59,7 @@ def simulate_system(
     integrator: str = "sdirk3",
     t0: float = 0.0,
     progress: Callable[[float], None] | None = None,
+    newton: tuple[float, float] | None = None,
 ) -> Trajectory:
     """Integrate a built system from ``(q0, v0)`` and record its outputs every ``sample_period``.
 
@@ -72,6 +73,8 @@ def simulate_system(
     integrator : {"sdirk3", "sdirk2", "rk4"}
     progress : callable, optional
         Called with the fraction done (0..1) after each sample.
+    newton : (float, float), optional
+        Newton acceptance of the implicit stages (relative, absolute); default the core's (1e-10, 1e-15).
 
     Returns
     -------
@@ -83,6 +86,8 @@ def simulate_system(
         raise ValueError(f"sample_period: expected a whole multiple of step = {step}, found {sample_period}")
     n = int(round(duration / sample_period)) + 1
     plant = CompiledPlant(system, integrator)
+    if newton is not None:
+        plant.set_newton(*newton)
     hist = {"q": np.zeros((n, system.nq)), "v": np.zeros((n, system.nv)), "ddq": np.zeros((n, system.nv)),
             "panels": np.zeros((n, plant.npanels, 4)), "mech": np.zeros((n, 11 + plant.nz)),
             "balance": np.zeros((n, 7)), "u": np.zeros((n, system.n_u))}
@@ -164,8 +169,9 @@ def simulate(
     q0, v0 = initial_state(system)
     duration = sim.duration if duration is None else duration
     sample_period = sim.sample_period if sample_period is None else sample_period
+    newton = None
     if step is None and integrator is None and sim.tolerance is not None:
-        integrator = sim.truth_integrator
+        integrator, newton = sim.truth_integrator, TRUTH_NEWTON
         step = choose_step(system, q0, v0, duration=duration, sample_period=sample_period, tolerance=sim.tolerance,
                            joint_tolerance=sim.joint_tolerance, method=integrator)
     traj = simulate_system(
@@ -177,6 +183,7 @@ def simulate(
         sample_period=sample_period,
         integrator=sim.integrator if integrator is None else integrator,
         progress=progress,
+        newton=newton,
     )
     traj.attrs["tolerance_rad"] = sim.tolerance if sim.tolerance is not None else 0.0
     traj.attrs.update(

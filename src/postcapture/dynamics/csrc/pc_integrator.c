@@ -198,7 +198,15 @@ static int step_stages(pc_model_t* m, const double* q, const double* v, double t
                 if ((err = newton_matrix(m, q, hg))) { free(xbar); return err; }
                 last_hg = hg;
             }
-            if (warm && m->have_prev) {
+            if (warm && m->have_prev == 2 && m->prev_h == h) {
+                /* the stage's offset from the step's start, extrapolated linearly over the last two steps */
+                for (k = 0; k < nv; k++) {
+                    double d1 = m->prev_V[(size_t)i * nv + k] - m->prev_v[k];
+                    double d2 = m->prev2_V[(size_t)i * nv + k] - m->prev2_v[k];
+                    V[k] = v[k] + 2.0 * d1 - d2;
+                    xi[k] = xbar[k] + hg * V[k];
+                }
+            } else if (warm && m->have_prev && m->prev_h == h) {
                 for (k = 0; k < nv; k++) {
                     V[k] = m->prev_V[(size_t)i * nv + k] + (v[k] - m->prev_v[k]);
                     xi[k] = xbar[k] + hg * V[k];
@@ -239,7 +247,7 @@ static int step_stages(pc_model_t* m, const double* q, const double* v, double t
     return PC_OK;
 }
 
-static int finish_step(pc_model_t* m, double* q, double* v, const double* xi_end, const double* v_end, double t,
+static int finish_step(pc_model_t* m, double* q, double* v, const double* xi_end, const double* v_end, double t, double h,
                        const pc_stages_t* S) {
     int k, nv = m->nv;
     double* q1 = m->tmp_nq[1];
@@ -248,9 +256,18 @@ static int finish_step(pc_model_t* m, double* q, double* v, const double* xi_end
         if (!(fabs(q1[k]) < INFINITY)) goto nonfinite;
     for (k = 0; k < nv; k++)
         if (!(fabs(v_end[k]) < INFINITY)) goto nonfinite;
+    if (m->have_prev && m->prev_h == h) { /* shift the memory by one step */
+        double* t1 = m->prev2_V;
+        double* t2 = m->prev2_v;
+        m->prev2_V = m->prev_V; m->prev2_v = m->prev_v;
+        m->prev_V = t1; m->prev_v = t2;
+        m->have_prev = 2;
+    } else {
+        m->have_prev = 1;
+    }
     for (k = 0; k < m->tab.s; k++) memcpy(m->prev_V + (size_t)k * nv, S->V[k], (size_t)nv * sizeof(double));
     memcpy(m->prev_v, v, (size_t)nv * sizeof(double));
-    m->have_prev = 1;
+    m->prev_h = h;
     memcpy(q, q1, (size_t)m->nq * sizeof(double));
     memcpy(v, v_end, (size_t)nv * sizeof(double));
     m->n_steps++;
@@ -268,7 +285,7 @@ int pc_step_internal(pc_model_t* m, double* q, double* v, double t, double h, pc
     v_end = (double*)malloc((size_t)m->nv * sizeof(double));
     if (!v_end) return PC_ERR_MEMORY;
     err = step_stages(m, q, v, t, h, S, xi_end, v_end, NULL, warm);
-    if (!err) err = finish_step(m, q, v, xi_end, v_end, t, S);
+    if (!err) err = finish_step(m, q, v, xi_end, v_end, t, h, S);
     free(v_end);
     return err;
 }
@@ -281,7 +298,7 @@ int pc_step(pc_model_t* m, double* q, double* v, double t, double h, double* qua
     ends = (double*)malloc(2 * (size_t)m->nv * sizeof(double));
     if (!ends) { free(S.buf); return PC_ERR_MEMORY; }
     err = step_stages(m, q, v, t, h, &S, ends, ends + m->nv, quad, 1);
-    if (!err) err = finish_step(m, q, v, ends, ends + m->nv, t, &S);
+    if (!err) err = finish_step(m, q, v, ends, ends + m->nv, t, h, &S);
     free(ends);
     free(S.buf);
     return err;
@@ -308,7 +325,7 @@ int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double h, int pe
             for (j = 0; j < per_sample; j++) {
                 double ts = t0 + (k - 1) * sample + j * h;
                 err = step_stages(m, q, v, ts, h, &S, ends, ends + nv, quad, 1);
-                if (!err) err = finish_step(m, q, v, ends, ends + nv, ts, &S);
+                if (!err) err = finish_step(m, q, v, ends, ends + nv, ts, h, &S);
                 if (err) goto done;
             }
         }

@@ -40,9 +40,12 @@ struct pc_model {
     pc_newton_t newton;
     long n_steps, n_newton, n_factor;
     /* warm start: the previous step's stages */
-    int have_prev;
-    double* prev_V;       /* stages x nv */
-    double* prev_v;       /* nv */
+    int have_prev;        /* previous steps remembered (0, 1 or 2), all of step prev_h */
+    double prev_h;
+    double* prev_V;       /* stages x nv: the previous step's stage velocities */
+    double* prev_v;       /* nv: the previous step's start velocity */
+    double* prev2_V;      /* the same one step earlier */
+    double* prev2_v;
     /* workspace */
     double *Rl, *pl;      /* nj x 9, nj x 3: joint placements in the parent (current configuration) */
     double *Ro, *po;      /* nj x 9, nj x 3: world placements */

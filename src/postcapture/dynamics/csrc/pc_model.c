@@ -34,7 +34,7 @@ void pc_destroy(pc_model_t* m) {
     int i;
     if (!m) return;
     free(m->joints); free(m->springs); free(m->u_to_v); free(m->B); free(m->prof); free(m->table_t);
-    free(m->table_v); free(m->panels); free(m->arm_v); free(m->params); free(m->u_extra); free(m->prev_V);
+    free(m->table_v); free(m->panels); free(m->arm_v); free(m->params); free(m->u_extra); free(m->prev_V); free(m->prev2_V); free(m->prev2_v);
     free(m->prev_v); free(m->Rl); free(m->pl); free(m->Ro); free(m->po); free(m->vj); free(m->aj); free(m->cj);
     free(m->fj); free(m->IA); free(m->Uj); free(m->Dj); free(m->uj);
     for (i = 0; i < 8; i++) free(m->tmp_nv[i]);
@@ -94,6 +94,8 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
     m->u_extra = (double*)zalloc((size_t)m->nu, sizeof(double), &ok);
     m->prev_V = (double*)zalloc((size_t)PC_MAX_STAGES * m->nv, sizeof(double), &ok);
     m->prev_v = (double*)zalloc((size_t)m->nv, sizeof(double), &ok);
+    m->prev2_V = (double*)zalloc((size_t)PC_MAX_STAGES * m->nv, sizeof(double), &ok);
+    m->prev2_v = (double*)zalloc((size_t)m->nv, sizeof(double), &ok);
     m->Rl = (double*)zalloc((size_t)m->nj * 9, sizeof(double), &ok);
     m->pl = (double*)zalloc((size_t)m->nj * 3, sizeof(double), &ok);
     m->Ro = (double*)zalloc((size_t)m->nj * 9, sizeof(double), &ok);
