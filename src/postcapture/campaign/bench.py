@@ -16,7 +16,7 @@ from collections.abc import Callable
 import numpy as np
 
 from postcapture.config import load_scenario
-from postcapture.dynamics.accuracy import TRUTH_NEWTON, choose_step
+from postcapture.dynamics.accuracy import choose_step, newton_for
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.simulate import simulate_system
 
@@ -80,7 +80,7 @@ def _rtf(scenario, n: int, duration: float, repeats: int, tolerance: float | Non
                        joint_tolerance=sim.joint_tolerance, method=sim.truth_integrator)
     choose_s = time.process_time() - t0
     run_s = _cpu(lambda: simulate_system(system, q0, v0, duration, step=step, sample_period=sim.sample_period,
-                                         integrator=sim.truth_integrator, newton=TRUTH_NEWTON), repeats)
+                                         integrator=sim.truth_integrator, newton=newton_for(tol)), repeats)
     return {"rtf": duration / (run_s + choose_s), "rtf_run_only": duration / run_s, "step_s": step,
             "choose_step_s": choose_s, "n_dof": system.nv}
 

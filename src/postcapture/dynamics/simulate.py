@@ -18,7 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from postcapture.config.schema import Scenario
-from postcapture.dynamics.accuracy import TRUTH_NEWTON, choose_step
+from postcapture.dynamics.accuracy import choose_step, newton_for
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.outputs import OutputSpec, fill_outputs, output_specs
@@ -171,7 +171,7 @@ def simulate(
     sample_period = sim.sample_period if sample_period is None else sample_period
     newton = None
     if step is None and integrator is None and sim.tolerance is not None:
-        integrator, newton = sim.truth_integrator, TRUTH_NEWTON
+        integrator, newton = sim.truth_integrator, newton_for(sim.tolerance)
         step = choose_step(system, q0, v0, duration=duration, sample_period=sample_period, tolerance=sim.tolerance,
                            joint_tolerance=sim.joint_tolerance, method=integrator)
     traj = simulate_system(
