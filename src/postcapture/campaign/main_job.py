@@ -175,7 +175,9 @@ def run_main_job(
         every case then runs on that FMU, whatever its case name's variant).
     mapping : str, optional
         The FMU's mapping TOML (default: the one inside the FMU or next to it).
-    progress : callable(message, fraction), optional
+    progress : callable(task, fraction), optional
+        Called as each task advances: ``task`` is ``"truth simulation"``, a case name or ``"crlb"``,
+        ``fraction`` the part of that task done (0 to 1; 1 when it ends).
     """
     unknown = [c for c in cases if c not in CASES]
     if unknown:
@@ -200,7 +202,7 @@ def run_main_job(
 
     tell("truth simulation", 0.0)
     t0 = time.perf_counter()
-    truth = simulate(scenario, duration=duration, progress=lambda f: tell("truth simulation", 0.15 * f))
+    truth = simulate(scenario, duration=duration, progress=lambda f: tell("truth simulation", f))
     truth_wall = time.perf_counter() - t0
     rng = np.random.default_rng(seed)
     sensor_profile = resolve_profile(scenario, profile)
@@ -212,11 +214,10 @@ def run_main_job(
     base = {"scenario": scenario.model_dump(), "t_grid": truth.t, "profile": sensor_profile, "profile_name": profile,
             "sensors": sensors, "theta0": theta0, "q_true0": truth["q_BN"][:, 0], "dq0": dq0,
             "plant": plant, "mapping": mapping}
-    jobs = [(_run_case, {**base, "case": c}) for c in cases]
+    jobs = [(_run_case, {**base, "case": c}, c) for c in cases]
     if crlb:
-        jobs.append((_run_crlb, base))
-    outputs = run_jobs(jobs, workers=workers,
-                       on_done=lambda name, done, total: tell(f"{name} done", 0.15 + 0.85 * done / total))
+        jobs.append((_run_crlb, base, "crlb"))
+    outputs = run_jobs(jobs, workers=workers, on_progress=tell, on_done=lambda name, done, total: tell(name, 1.0))
     res = MainJobResult(scenario.name, profile, float(truth.t[-1] - truth.t[0]), m_true, theta0, seed, truth,
                         truth_wall_s=truth_wall, plant=plant)
     res.crlb = outputs.pop("crlb", None)
