@@ -201,7 +201,7 @@ def run(scenario="envisat", *, profile: str = "reference", duration: float | Non
     Examples
     --------
     >>> result = run("envisat", duration=5.0, cases=["joint_flexible"], crlb=False, workers=1)
-    >>> result.to_pandas().loc["joint_flexible", "success"]
+    >>> bool(result.to_pandas().loc["joint_flexible", "success"])
     True
     >>> result.to_xarray()["mass_est"].dims
     ('case', 'time')
