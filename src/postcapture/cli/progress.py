@@ -130,11 +130,11 @@ class ProgressDisplay:
         from tqdm import tqdm
 
         width = _columns(self.stream)
-        if total is None:
-            fmt = "{desc} {elapsed}"
+        if total is None:  # a phase: its name and the time it has taken so far
+            fmt, room = "{desc} {elapsed}", width - 9
         else:
-            fmt = "{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}"
-        return tqdm(total=total, desc=desc[: max(10, width - 40)], bar_format=fmt, ncols=width, leave=False,
+            fmt, room = "{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}", width - 40
+        return tqdm(total=total, desc=desc[: max(10, room)], bar_format=fmt, ncols=width, leave=False,
                     file=self.stream, mininterval=0.0, position=position, dynamic_ncols=False)
 
     # phases --------------------------------------------------------------------------------------
