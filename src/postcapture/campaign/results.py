@@ -11,7 +11,7 @@ from postcapture.campaign.cases import CASES
 from postcapture.core import rotations as rot
 from postcapture.dynamics.trajectory import write_atomic
 
-__all__ = ["to_dataset", "write_results"]
+__all__ = ["to_dataset", "write_results", "write_campaign"]
 
 
 def to_dataset(result):
@@ -65,7 +65,10 @@ def to_dataset(result):
             "plant": result.plant,
             "duration_s": result.duration_s,
             "true_mass_kg": result.true_mass,
+            "nominal_mass_kg": result.nominal_mass,
             "initial_mass_kg": result.initial_mass,
+            "truth_source": result.truth_info.get("source", "nominal"),
+            "truth_json": json.dumps(result.truth_info, default=float),
             "seed": result.seed,
             "summary_json": json.dumps(result.summary(), default=float),
         },
@@ -110,4 +113,24 @@ def write_results(result, out_dir, figures: bool = True) -> dict:
     figs = main_job_figures(ds)
     for stem, fig in figs.items():
         paths[stem] = write_atomic(out / f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=DPI))
+    return paths
+
+
+def write_campaign(result, out_dir, figures: bool = True) -> dict:
+    """Write a campaign's ``campaign.nc``, ``summary.json``, ``table.txt`` and figures into ``out_dir``."""
+    from postcapture.report.campaign import campaign_figures, campaign_table
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = result.summary()
+    paths = {
+        "summary": write_atomic(out / "summary.json",
+                                lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2, default=float))),
+        "table": write_atomic(out / "table.txt", lambda tmp: Path(tmp).write_text(campaign_table(summary) + "\n")),
+    }
+    ds = result.to_xarray()
+    paths["results"] = write_atomic(out / "campaign.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
+    if figures:
+        for stem, fig in campaign_figures(ds, summary).items():
+            paths[stem] = write_atomic(out / f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
     return paths

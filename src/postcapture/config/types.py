@@ -27,11 +27,16 @@ __all__ = [
 ]
 
 
-def problem(expected: str, found: object) -> PydanticCustomError:
-    """A validation error whose message reads ``expected ..., found ...``."""
-    return PydanticCustomError(
-        "scenario", "expected {expected}, found {found}", {"expected": expected, "found": str(found)}
-    )
+def problem(expected: str, found: object, path: str | None = None) -> PydanticCustomError:
+    """A validation error whose message reads ``expected ..., found ...``.
+
+    ``path`` names the field when a check on a whole section is about one of its fields (for example
+    ``faults[0].stop``); the loader reports it instead of the section's own path.
+    """
+    ctx = {"expected": expected, "found": str(found)}
+    if path is not None:
+        ctx["path"] = path
+    return PydanticCustomError("scenario", "expected {expected}, found {found}", ctx)
 
 
 class Frozen(BaseModel):
