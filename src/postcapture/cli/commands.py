@@ -199,27 +199,20 @@ def cmd_campaign(args) -> int:
         raise ScenarioError([Problem("--truth-scenario", "no fixed truth with --dispersed (each run draws its own)",
                                      args.truth_scenario)])
     truth = _truth(args, scenario)
-    bar = None
+    with _display(args, "campaign") as shown:
+        shown.phase(f"{args.runs} runs")
 
-    def progress(message, done, total):
-        nonlocal bar
-        if message.startswith("resuming"):
-            print(f"postcapture: {message} in {args.out}", file=sys.stderr)
-        if bar is None:
-            from tqdm import tqdm
+        def progress(message, done, total):
+            if message.startswith("resuming"):
+                _note(f"{message} in {args.out}")  # said whatever the display: earlier runs are reused
+            shown.task("runs", done / total if total else 1.0)
 
-            bar = tqdm(total=total, desc="campaign", unit="run", disable=None, file=sys.stderr, leave=False)
-        bar.update(done - bar.n)
-
-    try:
         result = run_campaign(scenario, runs=args.runs, dispersed=args.dispersed, truth=truth, profile=args.profile,
                               cases=args.cases, duration=args.duration, initial_mass_error=args.initial_mass_error,
                               scheduler=args.scheduler, workers=args.workers, out=args.out, fresh=args.fresh,
                               crlb=not args.no_crlb, progress=progress)
-    finally:
-        if bar is not None:
-            bar.close()
-    paths = write_campaign(result, args.out, figures=not args.no_plots)
+        shown.phase("writing results" + ("" if args.no_plots else " and figures"))
+        paths = write_campaign(result, args.out, figures=not args.no_plots)
     summary = result.summary()
     if args.json:
         _print_json(summary)
