@@ -35,7 +35,7 @@ def test_verbose_logs_phases_and_each_case(capsys, caplog, tmp_path):
     assert "joint_flexible: started" in messages
     assert any(m.startswith("joint_flexible: ") and " % after " in m and m.endswith(" left") for m in messages)
     assert any(m.startswith("  joint_flexible") and "done in" in m for m in messages)
-    assert any(m.startswith("run: filters: 1 cases") for m in messages)
+    assert "run: filters: 1 cases in 1 process ..." in messages
     assert "Target mass at the end of the run" in capsys.readouterr().out
 
 

@@ -142,7 +142,9 @@ def cmd_run(args) -> int:
     cases = cases or DEFAULT_CASES
     with _display(args, "run") as shown:
         shown.phase("truth simulation and sensors")
-        filters = f"filters: {len(cases)} cases in {min(args.workers, len(cases) + 1)} processes"
+        jobs = len(cases) + (0 if args.no_crlb else 1)  # the Cramer-Rao bound is one more job
+        processes = 1 if args.workers == 1 or jobs == 1 else min(args.workers, jobs)
+        filters = f"filters: {len(cases)} cases in {processes} process{'es' if processes > 1 else ''}"
 
         def progress(task: str, fraction: float) -> None:
             if task != "truth simulation" and shown.current_phase != filters:
