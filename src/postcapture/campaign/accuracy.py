@@ -48,13 +48,19 @@ def integrator_accuracy(
     cases=CASES,
     free: bool = True,
     progress: Callable[[str], None] | None = None,
+    task_progress: Callable[[str, float], None] | None = None,
 ) -> dict:
     """Largest deviations from RK4 at ``ref_step`` over ``duration`` seconds, with the CPU time of each run.
 
     Returns ``{"forced": {"sdirk4 h=0.025": {...}, ...}, "free": {...}}``: attitude (arcsec), joint
     angles (rad), body rate (rad/s), the panel tip deflection, chaser acceleration and arm joint
     accelerations relative to their largest value, ``cpu_s`` and the real-time factor ``rtf``.
+    ``progress(message)`` is called as each run starts, ``task_progress(run, fraction)`` as it advances.
     """
+
+    def runner(name):
+        return None if task_progress is None else (lambda fraction: task_progress(name, fraction))
+
     scenario = load_scenario(scenario_name)
     panel = scenario.target.panels[0].name if scenario.target and scenario.target.panels else scenario.chaser.panels[0].name
     sp = scenario.simulation.sample_period
@@ -64,13 +70,15 @@ def integrator_accuracy(
         q0, v0 = initial_state(system)
         if progress:
             progress(f"{label}: reference rk4 h={ref_step}")
-        ref = simulate_system(system, q0, v0, duration, step=ref_step, sample_period=sp, integrator="rk4")
+        ref = simulate_system(system, q0, v0, duration, step=ref_step, sample_period=sp, integrator="rk4",
+                              progress=runner(f"{label} rk4 h={ref_step}"))
         rows = {}
         for method, h in cases:
             if progress:
                 progress(f"{label}: {method} h={h}")
             t0 = time.process_time()
-            traj = simulate_system(system, q0, v0, duration, step=h, sample_period=sp, integrator=method)
+            traj = simulate_system(system, q0, v0, duration, step=h, sample_period=sp, integrator=method,
+                                   progress=runner(f"{label} {method} h={h}"))
             cpu = time.process_time() - t0
             rows[f"{method} h={h}"] = {**_errors(traj, ref, panel), "cpu_s": cpu, "rtf": duration / cpu}
         out[label] = rows

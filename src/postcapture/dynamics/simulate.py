@@ -23,7 +23,7 @@ from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.outputs import OutputSpec, fill_outputs, output_specs
 from postcapture.dynamics.system import System
-from postcapture.dynamics.trajectory import Trajectory
+from postcapture.dynamics.trajectory import StateLayout, Trajectory
 
 __all__ = ["simulate", "simulate_system", "drift_metrics"]
 
@@ -132,7 +132,7 @@ def simulate_system(
         "newton_iterations": plant.stats()["newton_iterations"],
     }
     return Trajectory(np.array([t0 + k * sample_period for k in range(n)]), hist["q"].T.copy(), hist["v"].T.copy(),
-                      hist["ddq"].T.copy(), outputs, specs, attrs)
+                      hist["ddq"].T.copy(), outputs, specs, attrs, layout=StateLayout.from_system(system))
 
 
 def simulate(
