@@ -14,7 +14,10 @@ called, so ``import postcapture`` stays light:
 - :func:`export_fmu`: the plant as an FMI 2.0 co-simulation FMU.
 """
 
+from postcapture._blas import limit_blas_threads
 from postcapture._version import __version__
 from postcapture.facade import RunResult, calibrate_panel, export_fmu, load_scenario, run, simulate
+
+limit_blas_threads()
 
 __all__ = ["__version__", "load_scenario", "simulate", "run", "RunResult", "calibrate_panel", "export_fmu"]
