@@ -18,8 +18,8 @@
  * (mode 2, j = 0). Writes d ID / d(direction) into col (nv). V, A, F: the RNEA's twists, accelerations
  * and subtree wrenches; C: joint bias accelerations; dv, da, dF: scratch (nj x 6). */
 static void tangent_rnea(const pc_model_t* m, const int* sub_end, const double* V, const double* A, const double* F,
-                         const double* Cb, const double* v, int mode, int j, int k, double* dv, double* da,
-                         double* dF, double* col) {
+                         const double* Cb, const double* IV, const double* v, int mode, int j, int k, double* dv,
+                         double* da, double* dF, double* col) {
     int c, r;
     int end = sub_end[j];
     memset(col, 0, (size_t)m->nv * sizeof(double));
@@ -27,7 +27,7 @@ static void tangent_rnea(const pc_model_t* m, const int* sub_end, const double* 
         const pc_joint_t* J = &m->joints[c];
         double* dvc = dv + 6 * c;
         double* dac = da + 6 * c;
-        double Iv[6], Idv[6], t1[6], t2[6], t3[6];
+        double Idv[6], t1[6], t2[6], t3[6];
         if (c == j) {
             if (mode == 2) {
                 memset(dvc, 0, 6 * sizeof(double));
@@ -59,8 +59,7 @@ static void tangent_rnea(const pc_model_t* m, const int* sub_end, const double* 
         }
         /* body wrench tangent: I da + dv x* (I v) + v x* (I dv) */
         inertia_mul(J->pi, dac, t1);
-        inertia_mul(J->pi, V + 6 * c, Iv);
-        cross_force(dvc, Iv, t2);
+        cross_force(dvc, IV + 6 * c, t2); /* I v of the body, the same for every direction */
         inertia_mul(J->pi, dvc, Idv);
         cross_force(V + 6 * c, Idv, t3);
         for (r = 0; r < 6; r++) dF[6 * c + r] = t1[r] + t2[r] + t3[r];
@@ -126,8 +125,8 @@ int pc_rnea_derivatives(pc_model_t* m, const double* q, const double* v, const d
     double* tau = m->tmp_nv[3];
     double* col = m->tmp_nv[2];
     int* sub_end = (int*)malloc((size_t)nj * sizeof(int));
-    double* buf = (double*)malloc((size_t)nj * 6 * 7 * sizeof(double));
-    double *V, *A, *F, *Cb, *tv, *ta, *tF;
+    double* buf = (double*)malloc((size_t)nj * 6 * 8 * sizeof(double));
+    double *V, *A, *F, *Cb, *tv, *ta, *tF, *IV;
     if (!sub_end || !buf) {
         free(sub_end); free(buf);
         return PC_ERR_MEMORY;
@@ -138,11 +137,13 @@ int pc_rnea_derivatives(pc_model_t* m, const double* q, const double* v, const d
         return PC_ERR_ARG;
     }
     V = buf; A = V + 6 * nj; F = A + 6 * nj; Cb = F + 6 * nj; tv = Cb + 6 * nj; ta = tv + 6 * nj; tF = ta + 6 * nj;
+    IV = tF + 6 * nj;
     pc_rnea(m, q, v, a, tau);
     memcpy(V, m->vj, (size_t)nj * 6 * sizeof(double));
     memcpy(A, m->aj, (size_t)nj * 6 * sizeof(double));
     memcpy(F, m->fj, (size_t)nj * 6 * sizeof(double));
     memcpy(Cb, m->cj, (size_t)nj * 6 * sizeof(double));
+    for (i = 0; i < nj; i++) inertia_mul(m->joints[i].pi, V + 6 * i, IV + 6 * i);
     if (dq) memset(dq, 0, (size_t)nv * nv * sizeof(double));
     for (i = 0; i < nj; i++) {
         const pc_joint_t* J = &m->joints[i];
@@ -150,17 +151,17 @@ int pc_rnea_derivatives(pc_model_t* m, const double* q, const double* v, const d
             int k;
             if (!dv) continue;
             for (k = 0; k < 6; k++) {
-                tangent_rnea(m, sub_end, V, A, F, Cb, v, 2, i, k, tv, ta, tF, col);
+                tangent_rnea(m, sub_end, V, A, F, Cb, IV, v, 2, i, k, tv, ta, tF, col);
                 for (r = 0; r < nv; r++) dv[(size_t)r * nv + J->iv + k] = col[r];
             }
             continue;
         }
         if (dq) {
-            tangent_rnea(m, sub_end, V, A, F, Cb, v, 0, i, 0, tv, ta, tF, col);
+            tangent_rnea(m, sub_end, V, A, F, Cb, IV, v, 0, i, 0, tv, ta, tF, col);
             for (r = 0; r < nv; r++) dq[(size_t)r * nv + J->iv] = col[r];
         }
         if (dv) {
-            tangent_rnea(m, sub_end, V, A, F, Cb, v, 1, i, 0, tv, ta, tF, col);
+            tangent_rnea(m, sub_end, V, A, F, Cb, IV, v, 1, i, 0, tv, ta, tF, col);
             for (r = 0; r < nv; r++) dv[(size_t)r * nv + J->iv] = col[r];
         }
     }

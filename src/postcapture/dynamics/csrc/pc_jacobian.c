@@ -42,7 +42,7 @@ static int sens_alloc(const pc_model_t* m, sens_t* W, int with_inputs) {
 
 static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int i, const double* q, double h) {
     int nv = W->nv, nt = W->nt, nc = W->nc, nu = m->nu, ncu = W->ncu, np = m->np, rf = m->n_root_v;
-    int r, c, k, j, err;
+    int r, c, k, j, err, base_only = 1;
     double hg = h * m->tab.A[i][i];
     double* dK = W->dK + (size_t)i * nt * nc;
     double* dZ = W->dZ;
@@ -64,6 +64,7 @@ static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int
         double ha = h * m->tab.A[i][j];
         const double* dKj = W->dK + (size_t)j * nt * nc;
         if (ha == 0.0) continue;
+        base_only = 0;
         for (k = 0; k < nt * nc; k++) R0[k] += ha * dKj[k];
     }
     if (rf) pc_dexpinv_mats(S->xi[i], S->V[i], G, Gx);
@@ -103,6 +104,10 @@ static int stage_sensitivity(pc_model_t* m, sens_t* W, const pc_stages_t* S, int
                 else if (c >= nt && c < nt + ncu) s = hg * m->B[(size_t)r * nu + (c - nt)];
                 else if (c >= nt + ncu) s = hg * Tp[(size_t)r * np + (c - nt - ncu)];
                 Wr[c] = s;
+            }
+            if (base_only) { /* dZbar = base: M dZbar_V is M in the dv columns, dZbar_xi = 0 */
+                for (k = 0; k < nv; k++) Wr[nv + k] += M[(size_t)r * nv + k];
+                continue;
             }
             for (k = 0; k < nv; k++) {
                 double a = M[(size_t)r * nv + k];

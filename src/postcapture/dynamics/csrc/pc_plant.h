@@ -76,8 +76,8 @@ typedef struct {
 
 typedef struct pc_model pc_model_t;
 
-/* Newton policy of the implicit stages: per-coordinate weights 1 / (atol + rtol |y_i|), accepted after
- * at least two iterations once the RMS of the weighted correction is below 1. */
+/* Newton policy of the implicit stages: per-coordinate weights 1 / (atol + rtol |y_i|), accepted once
+ * the RMS of the weighted correction is below 1 after at least two iterations, or below 0.1 at the first. */
 typedef struct {
     double rtol, atol;
     int max_iter;
