@@ -307,7 +307,7 @@ int pc_derivatives(pc_model_t* m, const double* q, const double* v, const double
         if (Av) Av[i] = -Av[i];
     }
     /* multiply every column by M^-1 with the articulated factorization at q */
-    F.R = m->jac_work; F.p = F.R + 9 * m->nj; F.U = F.p + 3 * m->nj; F.Dinv = F.U + 6 * m->nj; F.valid = 0;
+    F.R = m->jac_work; F.p = F.R + 9 * m->nj; F.U = F.p + 3 * m->nj; F.Dinv = F.U + 6 * m->nj; F.cs = F.Dinv + m->nj; F.valid = 0;
     err = pc_factorize(m, q, NULL, &F);
     m->n_factor--; /* not an integrator factorization */
     if (err) { free(Tp); free(own); return err; }
@@ -343,7 +343,7 @@ int pc_rows_from_partials(pc_model_t* m, const double* q, const double* Cq, cons
     double* mr = (double*)malloc((size_t)nv * sizeof(double));
     pc_factor_t F;
     if (!mr) return PC_ERR_MEMORY;
-    F.R = m->jac_work; F.p = F.R + 9 * m->nj; F.U = F.p + 3 * m->nj; F.Dinv = F.U + 6 * m->nj; F.valid = 0;
+    F.R = m->jac_work; F.p = F.R + 9 * m->nj; F.U = F.p + 3 * m->nj; F.Dinv = F.U + 6 * m->nj; F.cs = F.Dinv + m->nj; F.valid = 0;
     err = pc_factorize(m, q, NULL, &F);
     m->n_factor--;
     if (err) { free(mr); return err; }

@@ -89,7 +89,10 @@ void pc_kinematics(pc_model_t* m, const double* q) {
             p[0] = J->p[0] + t[0]; p[1] = J->p[1] + t[1]; p[2] = J->p[2] + t[2];
         } else {
             axis_rotation(J->kind, q[J->iq], Rq);
-            mm3(J->R, Rq, R);
+            m->csl[2 * i] = Rq[4 * ((J->kind + 1) % 3)];
+            m->csl[2 * i + 1] = Rq[3 * ((J->kind + 2) % 3) + (J->kind + 1) % 3];
+            if (J->axis_only) memcpy(R, Rq, sizeof Rq);
+            else mm3(J->R, Rq, R);
             p[0] = J->p[0]; p[1] = J->p[1]; p[2] = J->p[2];
         }
     }
@@ -208,7 +211,7 @@ int pc_aba(pc_model_t* m, const double* q, const double* v, const double* tau, d
             memset(ci, 0, 6 * sizeof(double));
         } else {
             double vJ[6] = {0, 0, 0, 0, 0, 0};
-            if (J->parent >= 0) motion_act_inv(m->Rl + 9 * i, m->pl + 3 * i, m->vj + 6 * J->parent, vi);
+            if (J->parent >= 0) PC_MOTION_INV(m, m->Rl, m->pl, m->csl, i, m->vj + 6 * J->parent, vi);
             else memset(vi, 0, 6 * sizeof(double));
             vJ[3 + J->kind] = v[J->iv];
             vi[3 + J->kind] += v[J->iv];
@@ -240,7 +243,7 @@ int pc_aba(pc_model_t* m, const double* q, const double* v, const double* tau, d
                 mv6(Ia, m->cj + 6 * i, Ic);
                 for (k = 0; k < 6; k++) pa[k] = pA[k] + Ic[k] + U[k] * (u / D);
                 pc_add_transformed_inertia(m->Rl + 9 * i, m->pl + 3 * i, Ia, m->IA + 36 * J->parent);
-                force_act(m->Rl + 9 * i, m->pl + 3 * i, pa, f);
+                PC_FORCE_ACT(m, m->Rl, m->pl, m->csl, i, pa, f);
                 for (k = 0; k < 6; k++) m->fj[6 * J->parent + k] += f[k];
             }
         }
@@ -260,7 +263,7 @@ int pc_aba(pc_model_t* m, const double* q, const double* v, const double* tau, d
             memcpy(ddq + J->iv, ai, 6 * sizeof(double));
         } else {
             double x;
-            if (J->parent >= 0) motion_act_inv(m->Rl + 9 * i, m->pl + 3 * i, m->aj + 6 * J->parent, ai);
+            if (J->parent >= 0) PC_MOTION_INV(m, m->Rl, m->pl, m->csl, i, m->aj + 6 * J->parent, ai);
             else memset(ai, 0, 6 * sizeof(double));
             for (k = 0; k < 6; k++) ai[k] += m->cj[6 * i + k];
             x = (m->uj[i] - dot6(m->Uj + 6 * i, ai)) / m->Dj[i];
@@ -294,8 +297,8 @@ int pc_rnea(pc_model_t* m, const double* q, const double* v, const double* a, do
         } else {
             double vJ[6] = {0, 0, 0, 0, 0, 0};
             if (J->parent >= 0) {
-                motion_act_inv(m->Rl + 9 * i, m->pl + 3 * i, m->vj + 6 * J->parent, vi);
-                motion_act_inv(m->Rl + 9 * i, m->pl + 3 * i, m->aj + 6 * J->parent, ai);
+                PC_MOTION_INV(m, m->Rl, m->pl, m->csl, i, m->vj + 6 * J->parent, vi);
+                PC_MOTION_INV(m, m->Rl, m->pl, m->csl, i, m->aj + 6 * J->parent, ai);
             } else {
                 memset(vi, 0, 6 * sizeof(double));
                 memset(ai, 0, 6 * sizeof(double));
@@ -318,7 +321,7 @@ int pc_rnea(pc_model_t* m, const double* q, const double* v, const double* a, do
         else tau[J->iv] = fi[3 + J->kind];
         if (J->parent >= 0) {
             double f[6];
-            force_act(m->Rl + 9 * i, m->pl + 3 * i, fi, f);
+            PC_FORCE_ACT(m, m->Rl, m->pl, m->csl, i, fi, f);
             for (k = 0; k < 6; k++) m->fj[6 * J->parent + k] += f[k];
         }
     }
@@ -332,6 +335,7 @@ int pc_factorize(pc_model_t* m, const double* q, const double* armature, pc_fact
     pc_kinematics(m, q);
     memcpy(F->R, m->Rl, (size_t)m->nj * 9 * sizeof(double));
     memcpy(F->p, m->pl, (size_t)m->nj * 3 * sizeof(double));
+    memcpy(F->cs, m->csl, (size_t)m->nj * 2 * sizeof(double));
     for (i = 0; i < m->nj; i++) pc_joint_inertia_matrix(m->joints[i].pi, m->IA + 36 * i);
     for (i = m->nj - 1; i >= 0; i--) {
         const pc_joint_t* J = &m->joints[i];
@@ -384,7 +388,7 @@ void pc_factor_solve(const pc_model_t* m, const pc_factor_t* F, double* x) {
             const double* U = F->U + 6 * i;
             double s = u[i] * F->Dinv[i];
             for (k = 0; k < 6; k++) pa[k] = pA[6 * i + k] + U[k] * s;
-            force_act(F->R + 9 * i, F->p + 3 * i, pa, f);
+            PC_FORCE_ACT(m, F->R, F->p, F->cs, i, pa, f);
             for (k = 0; k < 6; k++) pA[6 * J->parent + k] += f[k];
         }
     }
@@ -397,7 +401,7 @@ void pc_factor_solve(const pc_model_t* m, const pc_factor_t* F, double* x) {
             memcpy(x + J->iv, a, 6 * sizeof(double));
         } else {
             double y;
-            if (J->parent >= 0) motion_act_inv(F->R + 9 * i, F->p + 3 * i, ai + 6 * J->parent, a);
+            if (J->parent >= 0) PC_MOTION_INV(m, F->R, F->p, F->cs, i, ai + 6 * J->parent, a);
             else memset(a, 0, 6 * sizeof(double));
             y = (u[i] - dot6(F->U + 6 * i, a)) * F->Dinv[i];
             x[J->iv] = y;

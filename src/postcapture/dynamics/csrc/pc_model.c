@@ -35,7 +35,7 @@ void pc_destroy(pc_model_t* m) {
     if (!m) return;
     free(m->joints); free(m->springs); free(m->u_to_v); free(m->B); free(m->prof); free(m->table_t);
     free(m->table_v); free(m->panels); free(m->arm_v); free(m->params); free(m->u_extra); free(m->prev_V); free(m->prev2_V); free(m->prev2_v);
-    free(m->prev_v); free(m->Rl); free(m->pl); free(m->Ro); free(m->po); free(m->vj); free(m->aj); free(m->cj);
+    free(m->prev_v); free(m->csl); free(m->fac.cs); free(m->Rl); free(m->pl); free(m->Ro); free(m->po); free(m->vj); free(m->aj); free(m->cj);
     free(m->fj); free(m->IA); free(m->Uj); free(m->Dj); free(m->uj);
     for (i = 0; i < 8; i++) free(m->tmp_nv[i]);
     for (i = 0; i < 2; i++) free(m->tmp_nq[i]);
@@ -97,6 +97,8 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
     m->prev2_V = (double*)zalloc((size_t)PC_MAX_STAGES * m->nv, sizeof(double), &ok);
     m->prev2_v = (double*)zalloc((size_t)m->nv, sizeof(double), &ok);
     m->Rl = (double*)zalloc((size_t)m->nj * 9, sizeof(double), &ok);
+    m->csl = (double*)zalloc((size_t)m->nj * 2, sizeof(double), &ok);
+    m->fac.cs = (double*)zalloc((size_t)m->nj * 2, sizeof(double), &ok);
     m->pl = (double*)zalloc((size_t)m->nj * 3, sizeof(double), &ok);
     m->Ro = (double*)zalloc((size_t)m->nj * 9, sizeof(double), &ok);
     m->po = (double*)zalloc((size_t)m->nj * 3, sizeof(double), &ok);
@@ -129,6 +131,8 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
         memcpy(J->R, dp, 9 * sizeof(double)); memcpy(J->p, dp + 9, 3 * sizeof(double));
         memcpy(J->pi, dp + 12, 10 * sizeof(double));
         dp += 22;
+        J->axis_only = J->kind >= 0 && J->R[0] == 1.0 && J->R[1] == 0.0 && J->R[2] == 0.0 && J->R[3] == 0.0 &&
+                       J->R[4] == 1.0 && J->R[5] == 0.0 && J->R[6] == 0.0 && J->R[7] == 0.0 && J->R[8] == 1.0;
         if (J->parent >= i || J->kind < -1 || J->kind > 2 || (J->kind == -1 && (i != 0 || J->parent != -1))) {
             pc_set_error(m, "joint %d: unsupported (free flyer only as the root; revolute x, y, z)", i);
             ok = 0;

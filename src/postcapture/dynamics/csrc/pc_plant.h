@@ -48,6 +48,7 @@ typedef struct {
     int iq, iv;      /* first configuration / velocity index */
     double R[9], p[3]; /* placement in the parent joint's frame */
     double pi[10];   /* inertia: Pinocchio dynamic parameters in the joint frame */
+    int axis_only;   /* revolute with an identity placement rotation: its rotation is about one axis */
 } pc_joint_t;
 
 typedef struct {
