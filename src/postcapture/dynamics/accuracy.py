@@ -45,7 +45,7 @@ def _run(system: System, q0, v0, method: str, h: float, sample_period: float, du
     n = int(round(duration / sample_period)) + 1
     plant = CompiledPlant(system, method)
     plant.set_newton(*newton)
-    return plant.simulate(q0, v0, 0.0, h, per, n)["q"]
+    return plant.simulate(q0, v0, 0.0, h, per, n, sample_period=sample_period)["q"]
 
 
 def choose_step(

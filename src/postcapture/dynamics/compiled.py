@@ -162,7 +162,7 @@ def _declare(lib: ctypes.CDLL) -> None:
         "pc_sample": (I, [P, P, P, D, P, P, P]),
         "pc_step": (I, [P, P, P, D, D, P]),
         "pc_step_jacobian": (I, [P, P, P, D, D, P, P, P]),
-        "pc_simulate": (I, [P, P, P, D, D, I, I, P, P, P, P, P, P, P, P]),
+        "pc_simulate": (I, [P, P, P, D, D, D, I, I, I, P, P, P, P, P, P, P, P]),
         "pc_predict": (I, [P, P, P, D, D, I, I, P, P, P, P, P, P, P]),
     }
     for name, (res, args) in sigs.items():

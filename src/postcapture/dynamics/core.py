@@ -200,8 +200,10 @@ class CompiledPlant:
                                          _ptr(z), *(_ptr(a) for a in out)), "prediction")
         return (q1, v1, z, *out)
 
-    def simulate(self, q, v, t0: float, h: float, per_sample: int, n_samples: int, balance0=None):
-        """Samples ``0 .. n_samples-1`` of a run (sample 0 at ``t0``), ``per_sample`` steps between samples.
+    def simulate(self, q, v, t0: float, h: float, per_sample: int, n_samples: int, balance0=None, *,
+                 sample_period: float | None = None, first_sample: int = 0):
+        """Samples ``first_sample ..`` of a run whose sample k is at ``t0 + k sample_period``, ``per_sample``
+        steps of ``h`` between samples (``sample_period`` defaults to ``h per_sample``).
 
         Returns a dict of sample-major histories: ``q``, ``v``, ``ddq``, ``panels`` (n, npanels, 4),
         ``mech`` (n, 11), ``balance`` (n, 7), ``u`` (n, nu), and the final ``(q, v)``.
@@ -216,7 +218,9 @@ class CompiledPlant:
         if balance0 is not None:
             out["balance"][0] = balance0
         cancel = ctypes.c_int(0)
-        self._check(self._lib.pc_simulate(self._h, _ptr(q1), _ptr(v1), float(t0), float(h), int(per_sample), n,
+        sample = float(h * per_sample if sample_period is None else sample_period)
+        self._check(self._lib.pc_simulate(self._h, _ptr(q1), _ptr(v1), float(t0), sample, float(h), int(per_sample),
+                                          int(first_sample), n,
                                           _ptr(out["q"]), _ptr(out["v"]), _ptr(out["ddq"]), _ptr(out["panels"]),
                                           _ptr(out["mech"]), _ptr(out["balance"]), _ptr(out["u"]),
                                           ctypes.addressof(cancel)), "simulation")

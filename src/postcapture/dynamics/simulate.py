@@ -98,7 +98,8 @@ def simulate_system(
     k0, bal0 = 0, np.zeros(7)
     while True:
         k1 = min(n - 1, k0 + chunk) if n > 1 else 0
-        out = plant.simulate(q, v, t0 + k0 * sample_period, step, per, k1 - k0 + 1, balance0=bal0)
+        out = plant.simulate(q, v, t0, step, per, k1 - k0 + 1, balance0=bal0, sample_period=sample_period,
+                             first_sample=k0)
         first = 0 if k0 == 0 else 1  # a chunk's first sample repeats the previous chunk's last
         for key in hist:
             hist[key][k0 + first : k1 + 1] = out[key][first:]

@@ -318,7 +318,8 @@ def tip_response_chain(panel: Panel, spec: SweepSpec, *, integrator: str | None 
     h_max = min(h_accuracy, h_stable) if integrator == "rk4" else h_accuracy
     substeps = max(1, math.ceil(spec.sample_period / h_max - 1e-9))
     h = spec.sample_period / substeps
-    run = CompiledPlant(system, integrator).simulate(q, v, 0.0, h, substeps, spec.n_samples)
+    run = CompiledPlant(system, integrator).simulate(q, v, 0.0, h, substeps, spec.n_samples,
+                                                     sample_period=spec.sample_period)
     out = run["panels"][:, 0, 2]  # the tip's z in the root frame
     logger.debug("chain %s: %d steps of %.4g s (%s)", panel.name, (spec.n_samples - 1) * substeps, h,
                  integrator)

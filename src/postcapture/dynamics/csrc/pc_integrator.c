@@ -306,26 +306,27 @@ int pc_step(pc_model_t* m, double* q, double* v, double t, double h, double* qua
     return err;
 }
 
-/* The whole truth run: n_samples samples, per_sample steps of h between them, every output recorded.
+/* Samples k0 .. k0 + n_samples - 1 of a run (sample k at t0 + k sample), per_sample steps of h between
+ * them, every output recorded; a run may be cut into such calls and gives the same result.
  * Histories are sample-major (the caller transposes): q (nq), v (nv), ddq (nv), panels (4 npanels),
  * mech (11 + nz), the balance integrals (7) and the inputs (nu) at each sample. */
-int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double h, int per_sample, int n_samples,
+int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double sample, double h, int per_sample, int k0,
+                int n_samples,
                 double* q_hist, double* v_hist, double* a_hist, double* panels_hist, double* mech_hist,
                 double* bal_hist, double* u_hist, volatile int* cancel) {
     pc_stages_t S;
     int k, j, err = PC_OK, nv = m->nv;
     double quad[7];
     double* ends;
-    double sample = h * per_sample;
     if (stages_alloc(m, &S)) return PC_ERR_MEMORY;
     ends = (double*)malloc(2 * (size_t)nv * sizeof(double));
     if (!ends) { free(S.buf); return PC_ERR_MEMORY; }
     memcpy(quad, bal_hist, sizeof quad); /* continue the balance from the caller's first row */
     for (k = 0; k < n_samples; k++) {
-        double t = t0 + k * sample;
+        double t = t0 + (k0 + k) * sample; /* time never accumulates: t0 + (global sample) * sample */
         if (k) {
             for (j = 0; j < per_sample; j++) {
-                double ts = t0 + (k - 1) * sample + j * h;
+                double ts = t0 + (k0 + k - 1) * sample + j * h;
                 err = step_stages(m, q, v, ts, h, &S, ends, ends + nv, quad, 1);
                 if (!err) err = finish_step(m, q, v, ends, ends + nv, ts, h, &S);
                 if (err) goto done;

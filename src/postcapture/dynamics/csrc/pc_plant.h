@@ -121,7 +121,8 @@ PC_API void pc_panel_quat_jacobian(const pc_model_t* m, const double* q, double*
 /* integration */
 PC_API int pc_step(pc_model_t* m, double* q, double* v, double t, double h, double* quad);
 PC_API int pc_step_jacobian(pc_model_t* m, double* q, double* v, double t, double h, double* F, double* Fu, double* Fp);
-PC_API int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double h, int per_sample, int n_samples,
+PC_API int pc_simulate(pc_model_t* m, double* q, double* v, double t0, double sample, double h, int per_sample,
+                       int k0, int n_samples,
                 double* q_hist, double* v_hist, double* a_hist, double* panels_hist, double* mech_hist,
                 double* bal_hist, double* u_hist, volatile int* cancel);
 PC_API int pc_predict(pc_model_t* m, double* q, double* v, double t, double h, int n_steps, int want_jac, double* z,
