@@ -62,6 +62,7 @@ class NativeProcessModel:
 
     def __init__(self, system: System, step: float, integrator: str = "sdirk3", name: str = "native"):
         self.system = system.copy()
+        self._integrator_name = integrator
         self.step = float(step)
         self.integrator = make_integrator(self.system, integrator)
         self.name = name
@@ -79,6 +80,10 @@ class NativeProcessModel:
         self._n_arm_locked = n_arm - self._arm_v.size  # the rigid variant has no arm coordinates
 
     # ------------------------------------------------------------------ protocol
+    def copy(self) -> "NativeProcessModel":
+        """An independent copy (own system, parameters and integrator state): a filter's own plant."""
+        return NativeProcessModel(self.system, self.step, self._integrator_name, self.name)
+
     @property
     def mass(self) -> float:
         return self.system.target_mass
