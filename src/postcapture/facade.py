@@ -200,8 +200,8 @@ def run(scenario="envisat", *, profile: str = "reference", duration: float | Non
 
     Examples
     --------
-    >>> result = run("envisat", duration=5.0, cases=["joint_flexible"], crlb=False, workers=1)
-    >>> bool(result.to_pandas().loc["joint_flexible", "success"])
+    >>> result = run("envisat", duration=5.0, cases=["joint"], crlb=False, workers=1)
+    >>> bool(result.to_pandas().loc["joint", "success"])
     True
     >>> result.to_xarray()["mass_est"].dims
     ('case', 'time')

@@ -17,7 +17,7 @@ from postcapture.core.units import DEG_PER_HOUR
 from postcapture.dynamics.simulate import simulate
 from postcapture.dynamics.truth import check_priors, draw_truth, nominal_truth, truth_from_scenario
 
-CASES = ("ekf_flexible", "mekf_flexible", "joint_flexible")
+CASES = ("ekf_flexible", "mekf_flexible", "joint")
 
 
 def _histories(result):
@@ -186,7 +186,7 @@ def test_a_killed_worker_loses_no_run(envisat, tmp_path):
     settings = dict(runs=6, dispersed=True, cases=("mekf_flexible",), duration=6.0, crlb=False)
     killed = []
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
         pids = client.run(os.getpid)
 
         def progress(message, done, total):

@@ -147,11 +147,11 @@ def test_panel_calibrate_bad_inputs_exit_1(capsys, tmp_path):
 
 def test_run_json_and_files(capsys, tmp_path):
     out = tmp_path / "res"
-    code, stdout, err = run(capsys, "run", "--duration", "15", "--cases", "ekf_flexible,joint_flexible", "--no-crlb",
+    code, stdout, err = run(capsys, "run", "--duration", "15", "--cases", "ekf_flexible,joint", "--no-crlb",
                             "--workers", "1", "--out", str(out), "--json")
     assert code == 0, err
     summary = json.loads(stdout)
-    for name in ("ekf_flexible", "joint_flexible"):
+    for name in ("ekf_flexible", "joint"):
         case = summary["cases"][name]
         for key in ("mass_error_kg", "mass_sigma_kg", "attitude_rms_arcsec", "inside_3sigma", "nees_mean", "wall_s"):
             assert key in case

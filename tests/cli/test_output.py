@@ -27,14 +27,14 @@ def test_command_output_fits_80_columns(argv, capsys, tmp_path, monkeypatch):
 
 def test_verbose_logs_phases_and_each_case(capsys, caplog, tmp_path):
     caplog.set_level(logging.INFO, logger="postcapture.progress")
-    code = main(["-v", "run", "--duration", "12", "--cases", "joint_flexible", "--no-crlb", "--no-plots",
+    code = main(["-v", "run", "--duration", "12", "--cases", "joint", "--no-crlb", "--no-plots",
                  "--workers", "1", "--out", str(tmp_path)])
     assert code == 0
     messages = [r.getMessage() for r in caplog.records if r.name == "postcapture.progress"]
     assert "run: truth simulation and sensors ..." in messages
-    assert "joint_flexible: started" in messages
-    assert any(m.startswith("joint_flexible: ") and " % after " in m and m.endswith(" left") for m in messages)
-    assert any(m.startswith("  joint_flexible") and "done in" in m for m in messages)
+    assert "joint: started" in messages
+    assert any(m.startswith("joint: ") and " % after " in m and m.endswith(" left") for m in messages)
+    assert any(m.startswith("  joint") and "done in" in m for m in messages)
     assert "run: filters: 1 cases in 1 process ..." in messages
     assert "Target mass at the end of the run" in capsys.readouterr().out
 
@@ -45,6 +45,6 @@ def test_an_fmu_plant_says_which_cases_it_skips(capsys, tmp_path):
     assert code == 1  # the FMU does not exist; the note comes first
     err = capsys.readouterr().err
     assert err.startswith("note: --plant fmu:")
-    assert "skipped: ekf_stiff, mekf_stiff" in " ".join(err.split())
+    assert "skipped: dual, joint, ekf_stiff, mekf_stiff" in " ".join(err.split())
     note = err.split("postcapture: error:")[0]  # the error names a long temporary path; the note must fit
     assert max(len(line) for line in note.splitlines()) <= 80

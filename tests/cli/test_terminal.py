@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 CSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
-CASES = ("ekf_flexible", "joint_flexible")
+CASES = ("ekf_flexible", "joint")
 
 
 def _script() -> str:
@@ -107,7 +107,7 @@ def test_every_line_fits_80_columns(run_in_terminal):
 
 def test_not_a_terminal_means_no_bars(tmp_path):
     """Piped, the same command writes only its result: no bars, no phase lines, on either stream."""
-    argv = [_script(), "run", "--duration", "3", "--cases", "joint_flexible", "--no-crlb", "--no-plots",
+    argv = [_script(), "run", "--duration", "3", "--cases", "joint", "--no-crlb", "--no-plots",
             "--workers", "1", "--out", str(tmp_path)]
     proc = subprocess.run(argv, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr

@@ -13,7 +13,13 @@ from postcapture.config import scenario_from_dict
 from postcapture.core.sigmoid import SigmoidMap
 from postcapture.dynamics.build import build_system
 from postcapture.dynamics.process_model import NativeProcessModel
+from postcapture.estimation.filter import Measurement
 from postcapture.estimation.mass_filter import MassFilter, MassFilterTuning
+
+
+def accelerations(t, innovation, dz_dm, R):
+    """A linearised accelerations measurement, as a dual scheme hands it to its mass filter."""
+    return Measurement("accelerations", t, np.asarray(innovation, dtype=float), np.diag(R), H=np.asarray(dz_dm))
 
 F, M_CHASER, M_LINK, M_TARGET = 200.0, 500.0, 10.0, 2000.0
 
@@ -57,7 +63,7 @@ def test_first_update_is_a_newton_step(model):
     model.mass = theta0
     p = model.predict(model.initial_state(), 0.0, 0.1, jacobians=True)
     a_true = F / (M_rest + M_TARGET)
-    filt.update(np.array([a_true, 0, 0, 0]) - p.z, p.h, 0.1)
+    filt.update(accelerations(0.1, np.array([a_true, 0, 0, 0]) - p.z, p.h, tuning.R_diag))
     x0 = smap.inverse(theta0)
     slope = -F / (M_rest + theta0) ** 2 * smap.derivative(x0)
     x1 = x0 + (a_true - F / (M_rest + theta0)) / slope
@@ -78,7 +84,7 @@ def test_mass_from_f_equals_ma_with_least_squares_accuracy(model):
         model.mass = filt.theta
         p = model.predict(x, k * 0.1, 0.1, jacobians=True)
         z = np.array([F / (M_rest + m_true), 0.0, 0.0, 0.0]) + np.r_[sigma * rng.standard_normal(3), 0.0]
-        filt.update(z - p.z, p.h, (k + 1) * 0.1)
+        filt.update(accelerations((k + 1) * 0.1, z - p.z, p.h, tuning.R_diag))
         info += (F / (M_rest + m_true) ** 2) ** 2 / R  # only the x sample carries the mass
     crlb = 1.0 / np.sqrt(info)  # least squares on a(m) = F / (M_rest + m)
     assert filt.sigma == pytest.approx(crlb, rel=0.05)
@@ -90,6 +96,6 @@ def test_sigmoid_keeps_the_mass_in_bounds():
     filt = MassFilter(tuning, 7727.9, 0.0, 100.0)
     for _ in range(5):  # absurd innovations push hard; the mass stays inside (b, a)
         filt.predict(0.0)
-        filt.update(np.full(10, 1e3), np.full(10, 1.0), 0.0)
+        filt.update(accelerations(0.0, np.full(10, 1e3), np.full(10, 1.0), tuning.R_diag))
     assert tuning.sigmoid.b < filt.theta < tuning.sigmoid.a
     assert filt.process_noise(0.0) == pytest.approx(20.1) and filt.process_noise(100.0) == pytest.approx(0.1)

@@ -24,12 +24,11 @@ from postcapture.campaign.tuning import ResolvedTuning, sigmoid_prior_variance
 from postcapture.core.sigmoid import SigmoidMap
 from postcapture.estimation.attitude_ekf import AttitudeEKFTuning
 from postcapture.estimation.dual import DualConfig
-from postcapture.estimation.joint import JointTuning
 from postcapture.estimation.mass_filter import MassFilterTuning
 from postcapture.estimation.mekf import MEKFTuning
 from postcapture.sensors.profiles import SensorProfile
 
-__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "dual_config", "joint_tuning", "gyro_sample_sigma"]
+__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "RECOMMENDED", "dual_config", "gyro_sample_sigma"]
 
 
 @dataclass(frozen=True)
@@ -37,24 +36,28 @@ class CaseSpec:
     """One estimation case: scheme, attitude filter, filter-model variant, mass sensitivity."""
 
     name: str
-    scheme: str  # "dual" or "joint"
-    attitude: str  # "ekf", "mekf" (dual) or "joint"
+    scheme: str  # "reference_dual" (attitude filter + sigmoid mass filter), "dual" or "joint" (recommended)
+    attitude: str  # "ekf" or "mekf" (reference_dual), "mekf" (dual) or "joint"
     variant: str  # filter model: "flexible", "stiff", "rigid"
     mass_sensitivity: str = "total"
     shift_state: bool = True
 
 
 CASES = {
-    "ekf_flexible": CaseSpec("ekf_flexible", "dual", "ekf", "flexible"),
-    "ekf_stiff": CaseSpec("ekf_stiff", "dual", "ekf", "stiff"),
-    "mekf_flexible": CaseSpec("mekf_flexible", "dual", "mekf", "flexible"),
-    "mekf_stiff": CaseSpec("mekf_stiff", "dual", "mekf", "stiff"),
-    "joint_flexible": CaseSpec("joint_flexible", "joint", "joint", "flexible"),
+    # the recommended configurations (estimation.schemes): consistent when the model is not the truth
+    "dual": CaseSpec("dual", "dual", "mekf", "flexible"),
+    "joint": CaseSpec("joint", "joint", "joint", "flexible"),
+    # the reference's four dual schemes, for comparison
+    "ekf_flexible": CaseSpec("ekf_flexible", "reference_dual", "ekf", "flexible"),
+    "ekf_stiff": CaseSpec("ekf_stiff", "reference_dual", "ekf", "stiff"),
+    "mekf_flexible": CaseSpec("mekf_flexible", "reference_dual", "mekf", "flexible"),
+    "mekf_stiff": CaseSpec("mekf_stiff", "reference_dual", "mekf", "stiff"),
     # the reference's own mass filter: derivative at fixed state, no state shift
-    "ekf_flexible_partial": CaseSpec("ekf_flexible_partial", "dual", "ekf", "flexible", "partial", False),
-    "mekf_flexible_partial": CaseSpec("mekf_flexible_partial", "dual", "mekf", "flexible", "partial", False),
+    "ekf_flexible_partial": CaseSpec("ekf_flexible_partial", "reference_dual", "ekf", "flexible", "partial", False),
+    "mekf_flexible_partial": CaseSpec("mekf_flexible_partial", "reference_dual", "mekf", "flexible", "partial", False),
 }
-DEFAULT_CASES = ("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff", "joint_flexible")
+DEFAULT_CASES = ("dual", "joint", "ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff")
+RECOMMENDED = ("dual", "joint")
 
 
 def gyro_sample_sigma(profile: SensorProfile) -> float:
@@ -95,27 +98,3 @@ def dual_config(spec: CaseSpec, profile: SensorProfile, profile_name: str, tunin
     mekf_P0[3:, 3:] = tuning.gyro_bias_initial_sigma**2 * np.eye(3)
     return DualConfig(spec.attitude, mass, ekf=ekf, mekf=mekf, mekf_P0=mekf_P0, shift_state=spec.shift_state,
                       mass_aware_q=(profile_name != "reference" and spec.mass_sensitivity == "total"), name=spec.name)
-
-
-def joint_tuning(profile: SensorProfile, tuning: ResolvedTuning, n_arm: int, m0: float) -> JointTuning:
-    """The joint EKF's noise model: matched to the sensors (it is ours, not the reference's)."""
-    acc = profile.accelerometer
-    smap = _sigmoid(tuning)
-    R_z = np.concatenate([np.full(3, acc.sigma**2), np.full(n_arm, profile.joints.sigma**2)])
-    return JointTuning(
-        R_star=profile.star_tracker.covariance(),
-        sigma_gyro=gyro_sample_sigma(profile),
-        sigma_u=profile.gyro.sigma_u,
-        R_accel=R_z,
-        sigma_accel_bias_walk=acc.sigma_bias_walk,
-        P0_accel_bias=tuning.accelerometer_bias_initial_sigma**2,
-        q_model=tuning.model_process_variance,
-        P0_state=1e-16,
-        q_mass_start=1e-6,
-        q_mass_end=1e-6,
-        P0_attitude=tuning.attitude_P0,
-        P0_bias=tuning.gyro_bias_initial_sigma**2,
-        P0_mass=sigmoid_prior_variance(tuning, smap, m0),
-        sigmoid=smap,
-        gate_probability=tuning.gate_probability,
-    )

@@ -9,19 +9,21 @@ processes. The Cramer-Rao bound of the mass is computed on the truth's own model
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from postcapture.campaign.cases import CASES, DEFAULT_CASES, dual_config, gyro_sample_sigma, joint_tuning
+from postcapture.campaign.cases import CASES, DEFAULT_CASES, dual_config, gyro_sample_sigma
 from postcapture.campaign.metrics import ARCSEC, case_metrics
 from postcapture.campaign.pool import run_jobs
 from postcapture.campaign.sensing import measure_all
 from postcapture.campaign.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
+from postcapture.core.errors import CovarianceError, DomainError, FilterDivergenceError, SimulationError
 from postcapture.core.farrenkopf import farrenkopf_steady_state
 from postcapture.dynamics.build import build_system
 from postcapture.dynamics.process_model import NativeProcessModel
@@ -30,6 +32,8 @@ from postcapture.dynamics.truth import TruthModel
 
 __all__ = ["CaseOutput", "MainJobResult", "run_main_job", "initial_state_and_sensitivity", "simulate_truth",
            "draw_sensors", "run_case"]
+
+logger = logging.getLogger(__name__)
 
 
 def initial_state_and_sensitivity(model, mass: float, dm: float = 1.0):
@@ -91,7 +95,8 @@ class MainJobResult:
             "seed": self.seed,
             "truth": self.truth_info,
             "noise": self.noise,
-            "crlb_mass_kg": self.crlb.as_dict() if self.crlb is not None else None,
+            "crlb_mass_kg": self.crlb["nuisance"].as_dict() if self.crlb is not None else None,
+            "crlb_known_model_mass_kg": self.crlb["known_model"].as_dict() if self.crlb is not None else None,
             "farrenkopf": self.farrenkopf,
             "cases": {name: c.metrics for name, c in self.cases.items()},
             "truth_wall_s": self.truth_wall_s,
@@ -114,15 +119,42 @@ def draw_sensors(plan: RunPlan, traj, seed: int):
 
 
 def run_case(plan: RunPlan, case: str, sensors, q0_true, dq0, progress=None):
-    """Run one case of a plan on recorded sensors; returns its result (a DualResult)."""
-    from postcapture.estimation.dual import run_dual
-    from postcapture.estimation.joint import run_joint
+    """Run one case of a plan on recorded sensors; returns its result (a DualResult or a SchemeResult).
 
+    A case whose filters cannot go on (their plant copy fails even after re-initialising) ends there: its
+    result carries ``success=False`` and the cause, and the other cases are not affected.
+    """
+    try:
+        return _run_case_unguarded(plan, case, sensors, q0_true, dq0, progress)
+    except (SimulationError, FilterDivergenceError, CovarianceError, DomainError) as exc:
+        logger.error("case %s failed: %s", case, exc)
+        return _failed_result(case, plan.t_grid, str(exc))
+
+
+def _failed_result(case: str, t_grid, message: str):
+    from postcapture.estimation.dual import DualResult
+    from postcapture.estimation.history import EstimateHistory, StepFlag
+
+    n = t_grid.size
+    nan = np.full(n, np.nan)
+    history = EstimateHistory(case, t_grid, np.full((4, n), np.nan), np.full((3, 3, n), np.nan), nan.copy(),
+                              np.full(n, int(StepFlag.DIVERGED), dtype=np.uint8), ("dtheta_x", "dtheta_y", "dtheta_z"),
+                              success=False, status=-1, message=f"failed: {message}")
+    return DualResult(history, nan.copy(), nan.copy(), nan.copy(), 0.0, {})
+
+
+def _run_case_unguarded(plan: RunPlan, case: str, sensors, q0_true, dq0, progress=None):
     scenario = plan.scenario
     spec = CASES[case]
     theta0 = plan.initial_mass
     native = NativeProcessModel(build_system(scenario, spec.variant), scenario.simulation.step,
                                 scenario.simulation.integrator, name=spec.name)
+    q0 = rot.box_plus(np.asarray(q0_true, dtype=float), dq0)
+    t_grid = plan.t_grid
+    if spec.scheme in ("dual", "joint"):
+        return _run_recommended(plan, spec, native, sensors, q0, progress)
+    from postcapture.estimation.dual import run_dual
+
     if plan.plant == "native":
         model = native
         x0, S0 = initial_state_and_sensitivity(model, theta0)
@@ -135,14 +167,30 @@ def run_case(plan: RunPlan, case: str, sensors, q0_true, dq0, progress=None):
             x0, S0 = initial_state_and_sensitivity(native, theta0)
         else:  # another tool's FMU: its own start values, no initial sensitivity
             x0, S0 = model.initial_state(), np.zeros(model.n)
-    q0 = rot.box_plus(np.asarray(q0_true, dtype=float), dq0)
-    t_grid = plan.t_grid
-    kwargs = dict(x0=x0, theta0=theta0, t_grid=t_grid, S0=S0, q0_BN=q0, raise_on_divergence=False, progress=progress)
-    if spec.scheme == "dual":
-        cfg = dual_config(spec, plan.filter_profile, plan.profile_name, plan.tuning, scenario.n_arm, theta0)
-        return run_dual(model, sensors, cfg, **kwargs)
-    return run_joint(model, sensors, joint_tuning(plan.filter_profile, plan.tuning, scenario.n_arm, theta0),
-                     name=spec.name, **kwargs)
+    cfg = dual_config(spec, plan.filter_profile, plan.profile_name, plan.tuning, scenario.n_arm, theta0)
+    return run_dual(model, sensors, cfg, x0=x0, theta0=theta0, t_grid=t_grid, S0=S0, q0_BN=q0,
+                    raise_on_divergence=False, progress=progress)
+
+
+def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
+    """The recommended dual or joint scheme (:mod:`postcapture.estimation.schemes`)."""
+    from postcapture.campaign.robust import build_augmented
+    from postcapture.estimation.mekf import MEKF
+    from postcapture.estimation.schemes import run_dual_scheme, run_joint_scheme
+
+    prof, tun = plan.filter_profile, plan.tuning
+    R_gyro = gyro_sample_sigma(prof) ** 2 * np.eye(3)
+    R_accel = np.concatenate([np.full(3, prof.accelerometer.sigma**2), np.full(plan.scenario.n_arm, prof.joints.sigma**2)])
+    panel_mass = sum(p.mass for p in plan.scenario.target.panels)
+    if spec.scheme == "joint":
+        filt = build_augmented(plan, model, q0, estimate_gyro_bias=True, name=spec.name)
+        return run_joint_scheme(filt, sensors, plan.t_grid, R_gyro=R_gyro, R_star=tun.star_covariance, R_accel=R_accel,
+                                panel_mass=panel_mass, progress=progress, name=spec.name)
+    cfg = dual_config(spec, prof, plan.profile_name, tun, plan.scenario.n_arm, plan.initial_mass)
+    mekf = MEKF(cfg.mekf, q0, cfg.mekf_P0, t0=plan.t_grid[0])
+    filt = build_augmented(plan, model, q0, estimate_gyro_bias=False, name=f"{spec.name}/parameters")
+    return run_dual_scheme(mekf, filt, sensors, plan.t_grid, R_gyro=R_gyro, R_accel=R_accel, panel_mass=panel_mass,
+                           progress=progress, name=spec.name)
 
 
 def _run_case(job: dict, progress=None):
@@ -151,16 +199,9 @@ def _run_case(job: dict, progress=None):
 
 
 def _run_crlb(job: dict, progress=None):
-    from postcapture.estimation.crlb import mass_crlb
+    from postcapture.campaign.robust import mass_bounds
 
-    plan: RunPlan = job["plan"]
-    sc = plan.truth.scenario
-    model = NativeProcessModel(plan.truth.build(), sc.simulation.step, sc.simulation.integrator)
-    x0, S0 = initial_state_and_sensitivity(model, model.mass)
-    p = plan.truth_profile
-    return "crlb", mass_crlb(model, x0, S0, plan.t_grid, R_star=p.star_tracker.covariance(),
-                             sigma_gyro=gyro_sample_sigma(p), sigma_accel=p.accelerometer.sigma,
-                             sigma_joint=p.joints.sigma, progress=progress)
+    return "crlb", mass_bounds(job["plan"], progress)
 
 
 def run_main_job(

@@ -224,7 +224,8 @@ def summarize(result: CampaignResult) -> dict:
     n = len(result.runs)
     lo1, hi1 = chi2_bounds(1, n) if n else (float("nan"),) * 2
     lo3, hi3 = chi2_bounds(3, n) if n else (float("nan"),) * 2
-    crlb = result.crlb.all_sensors if result.crlb is not None else None
+    crlb = result.crlb["nuisance"].all_sensors if result.crlb is not None else None
+    crlb_known = result.crlb["known_model"].all_sensors if result.crlb is not None else None
     out = {"cases": {}, "runs": n, "dispersed": result.settings.get("dispersed", False),
            "profile": result.settings.get("profile"), "scenario": result.settings.get("scenario"),
            "wall_s": result.wall_s, "resumed_runs": result.resumed}
@@ -255,6 +256,7 @@ def summarize(result: CampaignResult) -> dict:
             "attitude_nees_band": [float(lo3), float(hi3)],
             "diverged_runs": diverged,
             "crlb_kg": crlb,
+            "crlb_known_model_kg": crlb_known,
         }
     return out
 
@@ -314,7 +316,7 @@ def _dask_client(scheduler: str | None, workers: int):
     try:
         if scheduler is None:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                   dashboard_address=":0", silence_logs=logging.ERROR)
             client = Client(cluster)
         else:
             try:
@@ -339,7 +341,7 @@ def run_campaign(
     dispersed: bool = False,
     truth: TruthModel | None = None,
     profile: str = "realistic",
-    cases=("ekf_flexible", "joint_flexible"),
+    cases=("dual", "joint"),
     duration: float | None = None,
     initial_mass_error: float | None = None,
     scheduler: str | None = None,
@@ -446,7 +448,7 @@ def run_campaign(
 
 
 def _crlb(plan: RunPlan):
-    """The mass Cramer-Rao bound on the plan's (nominal) truth model and noise."""
-    from postcapture.campaign.main_job import _run_crlb
+    """The mass Cramer-Rao bounds on the plan's (nominal) truth model and noise (known model, with nuisance)."""
+    from postcapture.campaign.robust import mass_bounds
 
-    return _run_crlb({"plan": plan})[1]
+    return mass_bounds(plan)

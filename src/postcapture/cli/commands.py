@@ -112,12 +112,13 @@ def _fmu_cases(cases):
 
     if cases is not None:
         return cases, None
-    kept = tuple(c for c in DEFAULT_CASES if CASES[c].variant == "flexible")
+    kept = tuple(c for c in DEFAULT_CASES if CASES[c].variant == "flexible" and CASES[c].scheme == "reference_dual")
     skipped = [c for c in DEFAULT_CASES if c not in kept]
     note = None
     if skipped:
-        note = (f"--plant fmu: runs every case on the FMU's one plant, so only the cases meant for the flexible "
-                f"model run ({', '.join(kept)}); skipped: {', '.join(skipped)}. To run them, export a stiff "
+        note = (f"--plant fmu: runs every case on the FMU's one plant, and an FMU gives the mass only (no "
+                f"parameter Jacobians), so only the reference's dual schemes for the flexible model run "
+                f"({', '.join(kept)}); skipped: {', '.join(skipped)}. For the stiff ones, export a stiff "
                 "plant (postcapture fmu export --variant stiff) and pass --cases.")
     return kept, note
 

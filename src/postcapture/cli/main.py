@@ -160,8 +160,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="one truth for every run from this scenario (not with --dispersed)")
     p.add_argument("--profile", choices=["reference", "realistic"], default="realistic",
                    help="sensor profile and tuning (default: realistic)")
-    p.add_argument("--cases", type=_cases, default=("ekf_flexible", "joint_flexible"), metavar="A,B,...",
-                   help="cases to run (default: ekf_flexible,joint_flexible)")
+    p.add_argument("--cases", type=_cases, default=("dual", "joint"), metavar="A,B,...",
+                   help="cases to run (default: the recommended dual,joint)")
     p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="seconds (default: scenario)")
     p.add_argument("--initial-mass-error", type=float, default=None, metavar="KG",
                    help="added to the nominal mass to start the filters (default: scenario)")

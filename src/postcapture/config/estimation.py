@@ -9,6 +9,8 @@ sensors, the target's nominal mass and the declared ``[uncertainty]`` (see
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field, model_validator
 
 from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, Vec3, problem
@@ -64,6 +66,9 @@ class SensorProfileSpec(Frozen):
     joints: JointSensorSpec = JointSensorSpec()
 
 
+ParameterGroup = Literal["target", "panel_bending", "panel_torsion", "panel_damping", "arm_stiffness", "arm_damping"]
+
+
 class FilterTuning(Frozen):
     """Tunings of the filters under one sensor profile; None means derived (SI units throughout).
 
@@ -89,6 +94,12 @@ class FilterTuning(Frozen):
         Chi-square gate of every filter's innovations, in (0, 1).
     model_process_variance : float
         The joint EKF's process noise per step on every plant velocity coordinate.
+    estimate, consider : list of str
+        Parameter groups the recommended schemes estimate and consider (Schmidt), among ``target``,
+        ``panel_bending``, ``panel_torsion``, ``panel_damping``, ``arm_stiffness``, ``arm_damping``.
+    model_noise : float
+        Their process noise per step on every plant velocity coordinate ((m/s)^2, (rad/s)^2): the model
+        error no parameter describes.
     """
 
     star_tracker_sigma: PositiveFloat | None = None
@@ -103,11 +114,17 @@ class FilterTuning(Frozen):
     sigmoid_c: PositiveFloat | None = None
     gate_probability: float | None = Field(default=None, gt=0.0, lt=1.0)
     model_process_variance: NonNegativeFloat | None = None
+    estimate: tuple[ParameterGroup, ...] | None = None
+    consider: tuple[ParameterGroup, ...] | None = None
+    model_noise: NonNegativeFloat | None = None
 
     @model_validator(mode="after")
     def _bounds(self):
         if self.mass_bounds is not None and not self.mass_bounds[1] > self.mass_bounds[0]:
             raise problem("mass_bounds as [lower, upper] with upper > lower (kg)", list(self.mass_bounds))
+        both = sorted(set(self.estimate or ()) & set(self.consider or ()))
+        if both:
+            raise problem("each parameter group either estimated or considered, not both", both, "consider")
         return self
 
 

@@ -133,7 +133,7 @@ class UpdateResult:
     threshold: float | None
 
 
-def update(x, P, innovation, H, R, *, gate_probability: float | None = None) -> UpdateResult:
+def update(x, P, innovation, H, R, *, gate_probability: float | None = None, consider=None) -> UpdateResult:
     r"""Kalman measurement update in Joseph form, with optional chi-square innovation gating.
 
     Parameters
@@ -151,6 +151,10 @@ def update(x, P, innovation, H, R, *, gate_probability: float | None = None) -> 
     gate_probability : float, optional
         When given, the innovation is rejected (state and covariance returned unchanged) if its NIS
         exceeds ``chi2.ppf(gate_probability, m)``.
+    consider : slice or array of int, optional
+        Consider states (Schmidt-Kalman): their gain rows are set to zero, so their estimate never moves
+        while their covariance (and their cross-covariance with the other states) still enters ``S``,
+        the gain of the others, and ``P``. The Joseph form is exact for this suboptimal gain.
 
     Returns
     -------
@@ -198,6 +202,8 @@ def update(x, P, innovation, H, R, *, gate_probability: float | None = None) -> 
     sol = cho_solve(c, np.column_stack([nu, PHt.T]), check_finite=False)
     nis = float(nu @ sol[:, 0])
     K = sol[:, 1:].T
+    if consider is not None:
+        K[consider] = 0.0
     threshold = None if gate_probability is None else gate_threshold(gate_probability, m)
     if threshold is not None and not nis <= threshold:
         return UpdateResult(x.copy(), P.copy(), nu, S, K, nis, False, threshold)

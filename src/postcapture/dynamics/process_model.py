@@ -37,6 +37,8 @@ class NativeProcessModel:
 
     def __init__(self, system: System, step: float, integrator: str = "sdirk3", name: str = "native"):
         self._system = system.copy()
+        self._integrator_name = integrator
+        self._newton: tuple | None = None
         self.step = float(step)
         self.name = name
         self.plant = CompiledPlant(self._system, integrator)
@@ -60,6 +62,13 @@ class NativeProcessModel:
             self._p, self._system_p = sp.copy(), sp.copy()
             self.plant.set_params(self._p)
         return self._p
+
+    def copy(self) -> "NativeProcessModel":
+        """An independent copy (own system, parameters, compiled plant and Newton settings): a filter's own plant."""
+        other = NativeProcessModel(self.system, self.step, self._integrator_name, self.name)
+        if self._newton is not None:
+            other.set_newton(*self._newton)
+        return other
 
     @property
     def system(self) -> System:
@@ -90,6 +99,7 @@ class NativeProcessModel:
     def set_newton(self, rtol: float, atol: float, max_iter: int = 12) -> None:
         """Newton acceptance of the implicit stages (default 1e-10 relative, 1e-15 absolute)."""
         self.plant.set_newton(rtol, atol, max_iter)
+        self._newton = (rtol, atol, max_iter)
 
     def _dparams_dmass(self) -> np.ndarray:
         out = np.zeros(self._p.size)

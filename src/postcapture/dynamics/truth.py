@@ -26,8 +26,8 @@ from postcapture.dynamics.build import build_system
 from postcapture.dynamics.parameters import INERTIAL_NAMES, dynamic_parameters, mass_properties
 from postcapture.dynamics.system import System
 
-__all__ = ["TruthModel", "nominal_truth", "truth_from_scenario", "draw_truth", "truth_vector_names",
-           "check_priors"]
+__all__ = ["TruthModel", "nominal_truth", "truth_from_scenario", "draw_parameters", "draw_truth",
+           "truth_vector_names", "check_priors"]
 
 _TRUTH_STREAM = 0x7472757468  # keeps truth draws independent of the sensor-noise streams of the same seed
 _MAX_REDRAWS = 1000
@@ -187,16 +187,12 @@ def _draw_target(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
                                  f"no physical draw in {_MAX_REDRAWS} attempts")])
 
 
-def draw_truth(scenario: Scenario, seed) -> TruthModel:
-    """A truth drawn from the scenario's ``[uncertainty]`` priors, reproducible from ``seed`` (an int >= 0, or a
-    sequence of them, e.g. ``(scenario seed, run index)``)."""
+def draw_parameters(scenario: Scenario, rng: np.random.Generator) -> dict[str, float]:
+    """Model parameters (by name) drawn from the scenario's ``[uncertainty]`` priors; the declared ones only."""
     unc = scenario.uncertainty
-    seeds = [int(s) for s in np.atleast_1d(seed)]
-    rng = np.random.default_rng([*seeds, _TRUTH_STREAM])
-    truth_sc = scenario if unc.truth_panel_segments is None else scenario.with_panel_segments(unc.truth_panel_segments)
     params: dict[str, float] = {}
     if scenario.target is not None:
-        params.update({f"target.{n}": float(v) for n, v in zip(INERTIAL_NAMES, _draw_target(truth_sc, rng))})
+        params.update({f"target.{n}": float(v) for n, v in zip(INERTIAL_NAMES, _draw_target(scenario, rng))})
     for _, panel in scenario.panels():
         for kind, prior in (("bending", unc.panel_bending), ("torsion", unc.panel_torsion),
                             ("damping", unc.panel_damping)):
@@ -206,6 +202,17 @@ def draw_truth(scenario: Scenario, seed) -> TruthModel:
         for kind, prior in (("stiffness", unc.arm_stiffness), ("damping", unc.arm_damping)):
             if prior is not None:
                 params[f"arm.{kind}_scale"] = float(prior.sample(rng, factor=True))
+    return params
+
+
+def draw_truth(scenario: Scenario, seed) -> TruthModel:
+    """A truth drawn from the scenario's ``[uncertainty]`` priors, reproducible from ``seed`` (an int >= 0, or a
+    sequence of them, e.g. ``(scenario seed, run index)``)."""
+    unc = scenario.uncertainty
+    seeds = [int(s) for s in np.atleast_1d(seed)]
+    rng = np.random.default_rng([*seeds, _TRUTH_STREAM])
+    truth_sc = scenario if unc.truth_panel_segments is None else scenario.with_panel_segments(unc.truth_panel_segments)
+    params = draw_parameters(scenario, rng)
     gyro = unc.gyro_bias.sample(rng, 3) if unc.gyro_bias else None
     accel = unc.accelerometer_bias.sample(rng, 3) if unc.accelerometer_bias else None
     return TruthModel(truth_sc, params, gyro, accel, source="draw " + ",".join(str(x) for x in seeds))

@@ -9,19 +9,20 @@ The reference tuning is ``R = 0.01^2 I3``, ``Q = 0.0007^2 I3`` per step, ``P0 = 
 
 from __future__ import annotations
 
-import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from postcapture.core import kalman
 from postcapture.core import rotations as rot
-from postcapture.core.errors import CovarianceError, FilterDivergenceError
+from postcapture.core.errors import CovarianceError
 from postcapture.core.prediction import Prediction
+from postcapture.estimation.filter import FilterBase, RecoveryPolicy
 
-__all__ = ["AttitudeEKFTuning", "AttitudeEKF"]
+__all__ = ["AttitudeEKFTuning", "AttitudeEKF", "REACQUIRE_ATTITUDE"]
 
-logger = logging.getLogger(__name__)
+REACQUIRE_ATTITUDE = 1.0
+"""Attitude 1-sigma after a divergence (rad): the next star-tracker sample decides."""
 
 
 @dataclass(frozen=True)
@@ -38,15 +39,15 @@ class AttitudeEKFTuning:
         Initial attitude covariance.
     gate_probability : float or None
         Chi-square gate on the star-tracker NIS; None disables gating.
-    max_consecutive_rejections : int
-        So many gated-out samples in a row mean the filter lost the attitude: divergence.
+    recovery : RecoveryPolicy
+        When persistent gating or too-large innovations start a recovery (see :mod:`.filter`).
     """
 
     R: np.ndarray
     Q: np.ndarray
     P0: np.ndarray
     gate_probability: float | None = 0.9999
-    max_consecutive_rejections: int = 20
+    recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
 
     @classmethod
     def reference(cls) -> "AttitudeEKFTuning":
@@ -54,90 +55,84 @@ class AttitudeEKFTuning:
         return cls(R=0.01**2 * np.eye(3), Q=0.0007**2 * np.eye(3), P0=0.02**2 * np.eye(3))
 
 
-class AttitudeEKF:
-    """Attitude EKF around a :class:`~postcapture.estimation.process.ProcessModel`.
+class AttitudeEKF(FilterBase):
+    """Attitude EKF around a :class:`~postcapture.estimation.process.ProcessModel` (the stepper of :mod:`.filter`).
 
     Parameters
     ----------
     model : ProcessModel
-        The filter's own plant copy (its ``mass`` is set by the caller, e.g. a dual scheme).
+        The filter's plant copy (its ``mass`` is set by the caller, e.g. a dual scheme, which owns the copy).
     tuning : AttitudeEKFTuning
     x0 : ndarray, shape (nx,)
         Initial plant state (its attitude is the initial attitude estimate).
     name : str
-        Filter name for logs and errors.
-    raise_on_divergence : bool
-        Raise :class:`FilterDivergenceError` on divergence (default) or stop and flag it.
+        Filter name for logs and events.
+
+    Attributes
+    ----------
+    extra_process_noise : ndarray (3, 3) or None
+        Added to the tuning's ``Q`` at the next prediction (e.g. what the plant copy's mass uncertainty
+        does to its attitude, see :mod:`postcapture.estimation.dual`).
+    last_prediction : Prediction
+        The plant step of the last prediction (with its Jacobians).
     """
 
-    def __init__(self, model, tuning: AttitudeEKFTuning, x0, name: str = "ekf", raise_on_divergence: bool = True):
+    labels = ("dtheta_x", "dtheta_y", "dtheta_z")
+
+    def __init__(self, model, tuning: AttitudeEKFTuning, x0, name: str = "ekf"):
+        self._init_base(name, tuning.recovery, tuning.gate_probability)
         self.model = model
         self.tuning = tuning
-        self.name = name
         self.x = np.array(x0, dtype=float)
         self.P = np.array(tuning.P0, dtype=float)
         self.att = model.tangent_attitude
-        self.raise_on_divergence = raise_on_divergence
-        self.diverged = False
-        self.message = ""
-        self.cause = ""
-        self._rejections = 0
         self.last_gain = np.zeros((3, 3))
+        self.extra_process_noise = None
+        self.last_prediction: Prediction | None = None
 
     @property
     def q_BN(self) -> np.ndarray:
         """Current attitude estimate (scalar first)."""
         return self.model.attitude(self.x)
 
-    def _fail(self, t: float, cause: str) -> None:
-        self.diverged = True
-        self.cause = cause
-        self.message = f"diverged at t = {t:.6g} s: {cause}"
-        if self.raise_on_divergence:
-            raise FilterDivergenceError(self.name, t, cause)
-        logger.warning("%s %s", self.name, self.message)
-
-    def predict(self, t: float, dt: float, Q_extra=None) -> Prediction:
-        """Propagate the plant copy and the attitude covariance from ``t`` to ``t + dt``.
-
-        ``Q_extra`` (3, 3) is added to the tuning's ``Q`` for this step (e.g. what the plant copy's
-        mass uncertainty does to its attitude, see :mod:`postcapture.estimation.dual`).
-        """
+    def predict(self, t: float, dt: float, u=None) -> None:
+        """Propagate the plant copy and the attitude covariance from ``t`` to ``t + dt`` (``u`` unused)."""
         p = self.model.predict(self.x, t, dt, jacobians=True)
         Fa = p.F[self.att, self.att]
-        Q = self.tuning.Q if Q_extra is None else self.tuning.Q + Q_extra
+        Q = self.tuning.Q if self.extra_process_noise is None else self.tuning.Q + self.extra_process_noise
         self.P = kalman.symmetrize(Fa @ self.P @ Fa.T + Q)
         self.x = p.x
-        if not (np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.P))):
-            self._fail(t + dt, "non-finite state or covariance after the prediction")
-        return p
+        self.last_prediction = p
+        self.check_covariance(t + dt, "prediction")
 
-    def update(self, q_meas, t: float, R=None):
-        """Correct with a star-tracker quaternion; returns the update result, or None when skipped.
+    def update(self, z):
+        """Correct with a star-tracker :class:`~postcapture.estimation.filter.Measurement`; returns the result or None.
 
         A non-finite sample is skipped; an innovation outside the chi-square gate is rejected.
         """
-        q_meas = np.asarray(q_meas, dtype=float)
+        q_meas = np.asarray(z.value, dtype=float)
         self.last_gain = np.zeros((3, 3))
         if not np.all(np.isfinite(q_meas)):
+            self.counts["measurements_missing"] += 1
             return None
         innovation = rot.box_minus(q_meas, self.q_BN)
         try:
-            res = kalman.update(np.zeros(3), self.P, innovation, np.eye(3), self.tuning.R if R is None else R,
-                                gate_probability=self.tuning.gate_probability)
+            res = kalman.update(np.zeros(3), self.P, innovation, np.eye(3), z.R, gate_probability=self.gate(z.kind))
         except CovarianceError as exc:
-            self._fail(t, str(exc))
+            self.diverge(z.t, str(exc))
             return None
-        if not res.accepted:
-            self._rejections += 1
-            logger.info("%s: star-tracker sample at t = %.6g s rejected (NIS %.3g)", self.name, t, res.nis)
-            if self._rejections >= self.tuning.max_consecutive_rejections:
-                self._fail(t, f"{self._rejections} star-tracker samples in a row rejected by the gate")
-            return res
-        self._rejections = 0
-        dx = np.zeros(self.model.n)
-        dx[self.att] = res.x
-        self.x = self.model.retract(self.x, dx)
-        self.P = res.P
-        self.last_gain = res.K
+        if res.accepted:
+            dx = np.zeros(self.model.n)
+            dx[self.att] = res.x
+            self.x = self.model.retract(self.x, dx)
+            self.P = res.P
+            self.last_gain = res.K
+        self.record(z.kind, z.t, res.nis, 3, res.accepted)
         return res
+
+    def _recover(self, kind: str, t: float) -> None:
+        self.P = self.P * self.policy.inflation
+
+    def _reinitialise(self, t: float) -> None:
+        # the attitude is lost: the next star-tracker sample (let through without a gate) sets it
+        self.P = np.array(self.tuning.P0, dtype=float) + REACQUIRE_ATTITUDE**2 * np.eye(3)

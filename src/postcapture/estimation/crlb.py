@@ -1,23 +1,26 @@
-"""Cramer-Rao lower bound of the target mass for a run's excitation and sensor noise.
+"""Cramer-Rao lower bound of the target mass, with the model's uncertain parameters as nuisance.
 
-Along the true trajectory, the plant's sensitivity to the mass, ``S_k = dx_k / dm``, follows the exact
-step Jacobians (``S_k+1 = F_k S_k + g_k``, ``S_0 = dx_0/dm``: the initial state computed from the
-scenario depends on the mass). Each measurement's sensitivity to the parameters
-``p = (m, gyro bias (3), accelerometer bias (3), initial attitude (3))`` follows:
+The unknowns are ``theta = (c, gyro bias (3), accelerometer bias (3), initial attitude (3))``, where ``c``
+are coordinates of the plant's parameter vector along the directions ``D = dp/dc`` (n_p x k): the mass
+alone for a *known model*, or every parameter the scenario declares uncertain (in the filters' own
+coordinates) *with nuisance*. Along the true trajectory the plant's sensitivity ``S_k = dx_k/dc``
+follows the exact step Jacobians, ``S_k+1 = F_k S_k + G_k D`` from ``S_0 = (dx_0/dp) D`` (the initial
+state is computed from the parameters). Each measurement's sensitivity follows:
 
-- star tracker ``box_minus(q_k, q_0)``: ``dtheta_k/dm = S_k[att]``, ``d/d theta_0 = I`` (to first order);
+- star tracker: ``S_k[att]`` and ``I`` on the initial attitude (to first order);
 - gyro mean rate over ``[t_k, t_k+1]``: ``(Jr^-1 S_k+1[att] - Jl^-1 S_k[att]) / dt`` and ``I`` on its bias;
-- accelerometer: ``H_k S_k + h_k`` and ``I`` on its bias; joint accelerations: ``H_k S_k + h_k``.
+- accelerations: ``H_k S_k + Hp_k D``, and ``I`` on the accelerometer bias.
 
-The Fisher information ``J = sum_k G_k^T R^-1 G_k`` with each sensor's noise covariance ``R`` gives the
-bound ``sqrt([J^-1]_mm)``: no unbiased estimator of the mass, knowing the plant model and the
-initial state up to the listed nuisance parameters, does better on the same data. It is computed for
-every sensor alone and for all together.
+The Fisher information ``J = J_prior + sum_k G_k^T R^-1 G_k`` (``J_prior`` the inverse of the declared
+priors: the Bayesian bound) gives the bound ``sqrt(g^T J^-1 g)`` with ``g = dm/dtheta``: no estimator of
+the mass, knowing the plant up to those nuisance parameters and their priors, does better on the same
+data. It is given for all sensors, for each alone and for the accelerations together, and as a history
+(the bound from the data up to each instant), which shows the excitation the mass information comes from.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,92 +31,116 @@ __all__ = ["MassCRLB", "mass_crlb"]
 
 @dataclass
 class MassCRLB:
-    """One-sigma bounds on the mass (kg) from each sensor and from all of them."""
+    """One-sigma bounds on the mass (kg) from each sensor and from all of them, and over time."""
 
     all_sensors: float
     star_tracker: float
     gyro: float
     accelerometer: float
     joints: float
-    accelerations_only: float  # accelerometer and joints together: what a dual mass filter sees
+    accelerations_only: float  # accelerometer and joints together
+    history: np.ndarray = field(default_factory=lambda: np.zeros(0))  # all sensors, data up to each instant
 
     def as_dict(self) -> dict:
-        """Plain dict, for JSON."""
-        return dict(self.__dict__)
+        """Plain dict of the bounds (kg), for JSON (the history is left out)."""
+        return {k: v for k, v in self.__dict__.items() if k != "history"}
 
 
-def _bound(J: np.ndarray) -> float:
-    """``sqrt([J^-1]_00)`` with a pseudo-inverse guard for unidentifiable nuisance directions."""
+def _bound(J: np.ndarray, g: np.ndarray) -> float:
+    """``sqrt(g^T J^-1 g)`` with a pseudo-inverse guard for unidentifiable nuisance directions."""
     try:
-        inv = np.linalg.inv(J)
+        val = float(g @ np.linalg.solve(J, g))
     except np.linalg.LinAlgError:
-        inv = np.linalg.pinv(J)
-    val = inv[0, 0]
+        val = float(g @ np.linalg.pinv(J) @ g)
     return float(np.sqrt(val)) if val > 0 else float("inf")
 
 
-def mass_crlb(model, x0, S0, t_grid, *, R_star, sigma_gyro: float, sigma_accel: float, sigma_joint: float,
-              progress=None) -> MassCRLB:
-    """The mass CRLB along the trajectory of ``model`` (at the true mass) from ``x0``.
+def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, sigma_gyro: float, R_accel,
+              prior_information=None, bias_priors=None, progress=None) -> MassCRLB:
+    """Cramer-Rao bound of the target mass along the trajectory the model runs from ``x0``.
 
     Parameters
     ----------
     model : ProcessModel
-        A plant copy at the true mass.
-    x0, S0 : ndarray
-        Initial state and its derivative with respect to the mass (tangent).
-    t_grid : ndarray (n,)
+        The truth's model (with its true parameters set).
+    x0 : ndarray (nx,)
+        Its initial state.
+    dx0_dp : ndarray (n, n_p)
+        Derivative of the initial state with respect to the model's parameter vector.
+    t_grid : ndarray (n_t,)
         Uniform sample instants of every sensor.
+    directions : ndarray (n_p, k)
+        ``dp/dc``: the parameter coordinates the bound is over.
+    mass_gradient : ndarray (k,)
+        ``dm/dc`` of the total target mass.
     R_star : ndarray (3, 3)
         Star-tracker covariance (rad^2).
-    sigma_gyro, sigma_accel, sigma_joint : float
-        One-sigma noise of a gyro sample (rad/s), accelerometer (m/s^2) and joint acceleration (rad/s^2).
+    sigma_gyro : float
+        One-sigma noise of a gyro sample (rad/s).
+    R_accel : ndarray (m,)
+        Variances of the accelerometer (3) and joint-acceleration samples.
+    prior_information : ndarray (k, k), optional
+        Inverse of the coordinates' prior covariance (none: no prior on them).
+    bias_priors : (float, float), optional
+        Prior variances per axis of the gyro and accelerometer biases (none: no prior).
     """
     t_grid = np.asarray(t_grid, dtype=float)
     dt = float(t_grid[1] - t_grid[0])
     att = model.tangent_attitude
-    n_p = 10  # m, gyro bias (3), accel bias (3), initial attitude (3)
-    J = {name: np.zeros((n_p, n_p)) for name in ("star", "gyro", "accel", "joints")}
+    D = np.asarray(directions, dtype=float)
+    k = D.shape[1]
+    n_t = k + 9  # c, gyro bias (3), accel bias (3), initial attitude (3)
+    ib, ia, iq = slice(k, k + 3), slice(k + 3, k + 6), slice(k + 6, k + 9)
+    g = np.zeros(n_t)
+    g[:k] = mass_gradient
+    J = {name: np.zeros((n_t, n_t)) for name in ("star", "gyro", "accel", "joints")}
     W_star = np.linalg.inv(np.asarray(R_star, dtype=float))
+    R_acc = np.asarray(R_accel, dtype=float)
+    J_prior = np.zeros((n_t, n_t))
+    if prior_information is not None:
+        J_prior[:k, :k] = prior_information
+    if bias_priors is not None:
+        J_prior[ib, ib] = np.eye(3) / bias_priors[0]
+        J_prior[ia, ia] = np.eye(3) / bias_priors[1]
     x = np.array(x0, dtype=float)
-    S = np.array(S0, dtype=float)
-    for k in range(t_grid.size - 1):
-        p = model.predict(x, t_grid[k], dt, jacobians=True)
-        S1 = p.F @ S + p.g
-        # gyro sample at t_k: mean rate over the step, box_minus(q_k+1, q_k) / dt
+    S = np.asarray(dx0_dp, dtype=float) @ D
+    history = np.full(t_grid.size, np.nan)
+    for step in range(t_grid.size - 1):
+        p = model.predict(x, t_grid[step], dt, jacobians=True)
+        S1 = p.F @ S + p.G @ D
         phi = rot.box_minus(model.attitude(p.x), model.attitude(x))
-        G = np.zeros((3, n_p))
-        G[:, 0] = (rot.right_jacobian_inv(phi) @ S1[att] - rot.left_jacobian_inv(phi) @ S[att]) / dt
-        G[:, 1:4] = np.eye(3)
+        G = np.zeros((3, n_t))
+        G[:, :k] = (rot.right_jacobian_inv(phi) @ S1[att] - rot.left_jacobian_inv(phi) @ S[att]) / dt
+        G[:, ib] = np.eye(3)
         J["gyro"] += G.T @ G / sigma_gyro**2
-        # star tracker at t_k+1
-        G = np.zeros((3, n_p))
-        G[:, 0] = S1[att]
-        G[:, 7:10] = np.eye(3)
+        G = np.zeros((3, n_t))
+        G[:, :k] = S1[att]
+        G[:, iq] = np.eye(3)
         J["star"] += G.T @ W_star @ G
-        # accelerometer and joints at t_k+1
-        dz = p.H @ S1 + p.h
-        G = np.zeros((3, n_p))
-        G[:, 0] = dz[:3]
-        G[:, 4:7] = np.eye(3)
-        J["accel"] += G.T @ G / sigma_accel**2
-        Gj = np.zeros((dz.size - 3, n_p))
-        Gj[:, 0] = dz[3:]
-        J["joints"] += Gj.T @ Gj / sigma_joint**2
+        dz = p.H @ S1 + p.Hp @ D
+        G = np.zeros((dz.shape[0], n_t))
+        G[:, :k] = dz
+        G[:3, ia] = np.eye(3)
+        J["accel"] += G[:3].T @ G[:3] / R_acc[0]
+        J["joints"] += (G[3:].T / R_acc[3:]) @ G[3:]
         x, S = p.x, S1
-        if progress is not None and k % 100 == 0:
-            progress((k + 1) / (t_grid.size - 1))
+        if step % 10 == 9 or step == t_grid.size - 2:
+            history[step + 1] = _bound(J_prior + sum(J.values()) + 1e-30 * np.eye(n_t), g)
+        if progress is not None and step % 100 == 0:
+            progress((step + 1) / (t_grid.size - 1))
+
     def only(keys, nuisance):
         """Bound from some sensors, with only the nuisance parameters they observe (others would make J singular)."""
-        Jk = sum(J[k] for k in keys)
-        keep = [0, *nuisance]
-        return _bound(Jk[np.ix_(keep, keep)])
+        keep = [*range(k), *nuisance]
+        Jk = (J_prior + sum(J[name] for name in keys))[np.ix_(keep, keep)]
+        return _bound(Jk + 1e-30 * np.eye(len(keep)), g[keep])
 
     return MassCRLB(
-        all_sensors=only(("star", "gyro", "accel", "joints"), range(1, 10)),
-        star_tracker=only(("star",), range(7, 10)),
-        gyro=only(("gyro",), range(1, 4)),
-        accelerometer=only(("accel",), range(4, 7)),
+        all_sensors=only(("star", "gyro", "accel", "joints"), range(k, k + 9)),
+        star_tracker=only(("star",), range(k + 6, k + 9)),
+        gyro=only(("gyro",), range(k, k + 3)),
+        accelerometer=only(("accel",), range(k + 3, k + 6)),
         joints=only(("joints",), []),
-        accelerations_only=only(("accel", "joints"), range(4, 7)),
+        accelerations_only=only(("accel", "joints"), range(k + 3, k + 6)),
+        history=history,
     )

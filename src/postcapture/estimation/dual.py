@@ -24,7 +24,6 @@ are ours.
 
 from __future__ import annotations
 
-import logging
 import time
 from dataclasses import dataclass, field
 
@@ -33,13 +32,12 @@ import numpy as np
 from postcapture.core import rotations as rot
 from postcapture.core.errors import FilterDivergenceError
 from postcapture.estimation.attitude_ekf import AttitudeEKF, AttitudeEKFTuning
+from postcapture.estimation.filter import Measurement
 from postcapture.estimation.history import EstimateHistory, StepFlag
 from postcapture.estimation.mass_filter import MassFilter, MassFilterTuning
 from postcapture.estimation.mekf import MEKF, MEKFTuning
 
 __all__ = ["SensorSuite", "DualConfig", "DualResult", "on_grid", "run_dual"]
-
-logger = logging.getLogger(__name__)
 
 
 @dataclass
@@ -123,7 +121,8 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
     Parameters
     ----------
     model : ProcessModel
-        The filter's plant copy; its ``mass`` is driven by the mass filter.
+        The plant model; the scheme works on its own copy (``model.copy()``), whose mass the mass filter
+        drives: the caller's model is never changed.
     sensors : SensorSuite
         Measurements; a sample at ``t_k+1`` corrects the step ending there; gyro samples at ``t_k`` drive
         the MEKF over ``[t_k, t_k+1]``.
@@ -139,9 +138,12 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
     q0_BN : ndarray (4,), optional
         Initial attitude estimate; overrides the attitude in ``x0``.
     raise_on_divergence : bool
+        Raise :class:`FilterDivergenceError` after the run if a filter diverged (it re-initialised and
+        went on); otherwise the result carries ``success=False`` and the message.
     progress : callable(fraction), optional
     """
     wall0 = time.perf_counter()
+    model = model.copy()
     t_grid = np.asarray(t_grid, dtype=float)
     n_t = t_grid.size
     dt = float(t_grid[1] - t_grid[0])
@@ -156,16 +158,16 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
     star = on_grid(sensors.star, t_grid)
     gyro = on_grid(sensors.gyro, t_grid)
     z_meas = np.vstack([on_grid(sensors.accel, t_grid), on_grid(sensors.joints, t_grid)])
+    R_z = np.diag(config.mass.R_diag)
 
-    mass = MassFilter(config.mass, theta0, t_grid[0], t_grid[-1], name=f"{config.name}/mass",
-                      raise_on_divergence=raise_on_divergence)
+    mass = MassFilter(config.mass, theta0, t_grid[0], t_grid[-1], name=f"{config.name}/mass")
     if config.attitude == "ekf":
-        filt = AttitudeEKF(model, config.ekf, x, name=f"{config.name}/ekf", raise_on_divergence=raise_on_divergence)
-        m_err = 3
+        filt = AttitudeEKF(model, config.ekf, x, name=f"{config.name}/ekf")
+        R_star, m_err = config.ekf.R, 3
     else:
         P0 = config.mekf_P0 if config.mekf_P0 is not None else np.diag([1e-4] * 3 + [1e-10] * 3)
-        filt = MEKF(config.mekf, model.attitude(x), P0, t0=t_grid[0], raise_on_divergence=raise_on_divergence)
-        m_err = 6
+        filt = MEKF(config.mekf, model.attitude(x), P0, t0=t_grid[0])
+        R_star, m_err = config.mekf.star_covariance, 6
     q_hist = np.full((4, n_t), np.nan)
     P_hist = np.full((m_err, m_err, n_t), np.nan)
     nis = np.full(n_t, np.nan)
@@ -173,82 +175,86 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
     theta = np.full(n_t, np.nan)
     sigma = np.full(n_t, np.nan)
     mass_nis = np.full(n_t, np.nan)
-    counts = {"updates": 0, "rejected": 0, "measurements_missing": 0, "inputs_missing": 0, "mass_updates": 0}
+    inputs_missing = 0
     q_hist[:, 0] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
     P_hist[..., 0] = filt.P
     theta[0], sigma[0] = mass.theta, mass.sigma
     last_gyro = None
+    for k in range(n_t - 1):
+        t, t1 = t_grid[k], t_grid[k + 1]
+        mass.predict(t, dt)
+        model.mass = mass.theta
+        if config.attitude == "ekf":
+            if config.mass_aware_q:
+                d = S[rate] * dt * mass.sigma
+                filt.extra_process_noise = np.outer(d, d)
+            filt.predict(t, dt)
+            p = filt.last_prediction
+            S = p.F @ S + p.g
+            res = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
+            if res is not None and res.accepted:  # the copy's attitude now leans on the measurement
+                S[att] -= filt.last_gain @ S[att]
+            x = filt.x
+        else:
+            p = model.predict(x, t, dt, jacobians=True)
+            S = p.F @ S + p.g
+            w = gyro[:, k]
+            if np.all(np.isfinite(w)):
+                last_gyro = w
+            else:
+                inputs_missing += 1
+                flags[k + 1] |= StepFlag.INPUT_MISSING
+            if last_gyro is not None:
+                filt.predict(t, dt, last_gyro)
+            res = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
+            dx = np.zeros(model.n)
+            dx[att] = rot.box_minus(filt.q_BN, model.attitude(p.x))
+            S[att] = 0.0
+            w_next = gyro[:, k + 1]
+            if config.reset_rates and np.all(np.isfinite(w_next)):
+                dx[rate] = (w_next - filt.bias_B) - model.body_rate(p.x)
+                S[rate] = 0.0
+            x = model.retract(p.x, dx)
+        if res is None:
+            flags[k + 1] |= StepFlag.MEASUREMENT_MISSING
+        elif not res.accepted:
+            flags[k + 1] |= StepFlag.REJECTED
+        else:
+            flags[k + 1] |= StepFlag.UPDATED
+            nis[k + 1] = res.nis
+        # measurement predicted at the corrected state, to first order from the prediction
+        z_hat = p.z + p.H @ model.local(x, p.x)
+        dz = p.H @ S + p.h if config.mass.sensitivity == "total" else p.h
+        theta_before = mass.theta
+        mres = mass.update(Measurement("accelerations", t1, z_meas[:, k + 1] - z_hat, R_z, H=dz))
+        if mres is not None and mres.accepted:
+            mass_nis[k + 1] = mres.nis
+            if config.shift_state and config.mass.sensitivity == "total":
+                x = model.retract(x, S * (mass.theta - theta_before))
+                if config.attitude == "ekf":
+                    filt.x = x
+        q_hist[:, k + 1] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
+        P_hist[..., k + 1] = filt.P
+        theta[k + 1], sigma[k + 1] = mass.theta, mass.sigma
+        if progress is not None and k % 50 == 0:
+            progress((k + 1) / (n_t - 1))
+    events = list(filt.events) + list(mass.events)
+    diverged = sorted((e for e in events if e.kind == "diverged"), key=lambda e: e.t)
     success, status, message = True, 0, "completed"
-    try:
-        for k in range(n_t - 1):
-            t, t1 = t_grid[k], t_grid[k + 1]
-            mass.predict(t)
-            model.mass = mass.theta
-            if config.attitude == "ekf":
-                Q_extra = None
-                if config.mass_aware_q:
-                    d = S[rate] * dt * mass.sigma
-                    Q_extra = np.outer(d, d)
-                p = filt.predict(t, dt, Q_extra)
-                S = p.F @ S + p.g
-                res = filt.update(star[:, k + 1], t1)
-                if res is not None and res.accepted:  # the copy's attitude now leans on the measurement
-                    S[att] -= filt.last_gain @ S[att]
-                x = filt.x
-            else:
-                p = model.predict(x, t, dt, jacobians=True)
-                S = p.F @ S + p.g
-                w = gyro[:, k]
-                if np.all(np.isfinite(w)):
-                    last_gyro = w
-                else:
-                    counts["inputs_missing"] += 1
-                    flags[k + 1] |= StepFlag.INPUT_MISSING
-                if last_gyro is not None:
-                    filt.predict(dt, last_gyro, t=t1)
-                res = filt.update(star[:, k + 1])
-                dx = np.zeros(model.n)
-                dx[att] = rot.box_minus(filt.q_BN, model.attitude(p.x))
-                S[att] = 0.0
-                w_next = gyro[:, k + 1]
-                if config.reset_rates and np.all(np.isfinite(w_next)):
-                    dx[rate] = (w_next - filt.bias_B) - model.body_rate(p.x)
-                    S[rate] = 0.0
-                x = model.retract(p.x, dx)
-            if res is None:
-                counts["measurements_missing"] += 1
-                flags[k + 1] |= StepFlag.MEASUREMENT_MISSING
-            elif not res.accepted:
-                counts["rejected"] += 1
-                flags[k + 1] |= StepFlag.REJECTED
-            else:
-                counts["updates"] += 1
-                flags[k + 1] |= StepFlag.UPDATED
-                nis[k + 1] = res.nis
-            # measurement predicted at the corrected state, to first order from the prediction
-            z_hat = p.z + p.H @ model.local(x, p.x)
-            dz = p.H @ S + p.h if config.mass.sensitivity == "total" else p.h
-            theta_before = mass.theta
-            mres = mass.update(z_meas[:, k + 1] - z_hat, dz, t1)
-            if mres is not None:
-                counts["mass_updates"] += 1
-                mass_nis[k + 1] = mres.nis
-                if config.shift_state and config.mass.sensitivity == "total":
-                    x = model.retract(x, S * (mass.theta - theta_before))
-                    if config.attitude == "ekf":
-                        filt.x = x
-            q_hist[:, k + 1] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
-            P_hist[..., k + 1] = filt.P
-            theta[k + 1], sigma[k + 1] = mass.theta, mass.sigma
-            if progress is not None and k % 50 == 0:
-                progress((k + 1) / (n_t - 1))
-            if getattr(filt, "diverged", False) or getattr(filt, "status", "running") == "failed" or mass.diverged:
-                raise FilterDivergenceError(config.name, t1, filt.cause or mass.cause)
-    except FilterDivergenceError as exc:
+    if diverged:
+        first = diverged[0]
+        who = filt.name if first in filt.events else mass.name
         if raise_on_divergence:
-            raise
-        success, status, message = False, -1, str(exc)
-        flags[k + 1 :] |= np.uint8(int(StepFlag.DIVERGED))
+            raise FilterDivergenceError(who, first.t, first.cause)
+        success, status = False, -1
+        message = f"filter {who!r} diverged at t = {first.t:.6g} s: {first.cause} (re-initialised, went on)"
+        flags[int(np.searchsorted(t_grid, first.t)) :] |= np.uint8(int(StepFlag.DIVERGED))
+    counts = {key: filt.counts.get(key, 0) for key in ("updates", "rejected", "measurements_missing", "recoveries",
+                                                        "divergences")}
+    counts["inputs_missing"] = inputs_missing
+    counts["mass_updates"] = mass.counts["updates"]
+    counts["recoveries"] += mass.counts["recoveries"]
+    counts["divergences"] += mass.counts["divergences"]
     history = EstimateHistory(
         filter_name=config.name,
         t=t_grid,
@@ -262,5 +268,6 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
         success=success,
         status=status,
         message=message,
+        events=tuple(sorted(events, key=lambda e: e.t)),
     )
     return DualResult(history, theta, sigma, mass_nis, time.perf_counter() - wall0, counts)

@@ -82,6 +82,8 @@ class EstimateHistory:
         0 on success, -1 on divergence.
     message : str
         Human-readable outcome.
+    events : tuple of FilterEvent
+        Recoveries, divergences and re-initialisations, with times and causes.
     """
 
     filter_name: str
@@ -96,6 +98,7 @@ class EstimateHistory:
     success: bool = True
     status: int = 0
     message: str = "completed"
+    events: tuple = ()
 
     def __post_init__(self):
         n = np.asarray(self.t).size

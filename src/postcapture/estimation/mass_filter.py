@@ -19,18 +19,16 @@ owns ``S``.
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from postcapture.core import kalman
-from postcapture.core.errors import CovarianceError, FilterDivergenceError
+from postcapture.core.errors import CovarianceError
 from postcapture.core.sigmoid import SigmoidMap
+from postcapture.estimation.filter import FilterBase, RecoveryPolicy
 
 __all__ = ["MassFilterTuning", "MassFilter"]
-
-logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -55,6 +53,8 @@ class MassFilterTuning:
         Also estimate the accelerometer bias (3 more states; the first three measurements read it).
     P0_accel_bias, q_accel_bias : float
         Its initial variance per axis ((m/s^2)^2) and random-walk variance per step.
+    recovery : RecoveryPolicy
+        When persistent gating or too-large innovations start a recovery (see :mod:`.filter`).
     """
 
     R_diag: np.ndarray
@@ -67,6 +67,7 @@ class MassFilterTuning:
     accel_bias: bool = False
     P0_accel_bias: float = (50e-6 * 9.80665) ** 2
     q_accel_bias: float = 0.0
+    recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
 
     def __post_init__(self):
         if self.sensitivity not in ("total", "partial"):
@@ -83,8 +84,8 @@ class MassFilterTuning:
         return cls(R_diag=R, **overrides)
 
 
-class MassFilter:
-    """Scalar EKF on the sigmoid pre-image of the target mass.
+class MassFilter(FilterBase):
+    """Scalar EKF on the sigmoid pre-image of the target mass (the stepper of :mod:`.filter`).
 
     Parameters
     ----------
@@ -94,35 +95,26 @@ class MassFilter:
     t0, t_end : float
         Start and end of the run (s), for the process-noise schedule.
     name : str
-    raise_on_divergence : bool
     """
 
-    def __init__(self, tuning: MassFilterTuning, theta0: float, t0: float, t_end: float, name: str = "mass",
-                 raise_on_divergence: bool = True):
+    def __init__(self, tuning: MassFilterTuning, theta0: float, t0: float, t_end: float, name: str = "mass"):
+        self._init_base(name, tuning.recovery, tuning.gate_probability)
         self.tuning = tuning
         self.map = tuning.sigmoid
         self.nb = 3 if tuning.accel_bias else 0
+        self.labels = ("mass_preimage",) + tuple(f"accel_bias_{a}" for a in "xyz")[: self.nb]
         self.s = np.zeros(1 + self.nb)  # [x, accelerometer bias (3)]
         self.s[0] = float(self.map.inverse(theta0))
-        self.Ps = np.zeros((1 + self.nb, 1 + self.nb))
-        self.Ps[0, 0] = float(tuning.P0)
-        self.Ps[1:, 1:] = tuning.P0_accel_bias * np.eye(self.nb)
+        self.P = np.zeros((1 + self.nb, 1 + self.nb))
+        self.P[0, 0] = float(tuning.P0)
+        self.P[1:, 1:] = tuning.P0_accel_bias * np.eye(self.nb)
+        self._P0 = self.P.copy()
         self.t0, self.t_end = float(t0), float(t_end)
-        self.name = name
-        self.raise_on_divergence = raise_on_divergence
-        self.diverged = False
-        self.message = ""
-        self.cause = ""
 
     @property
     def x(self) -> float:
         """The sigmoid pre-image of the mass."""
         return float(self.s[0])
-
-    @property
-    def P(self) -> float:
-        """Variance of ``x``."""
-        return float(self.Ps[0, 0])
 
     @property
     def theta(self) -> float:
@@ -132,7 +124,7 @@ class MassFilter:
     @property
     def sigma(self) -> float:
         """One-sigma of the mass estimate (kg), through the map's slope."""
-        return float(abs(self.map.derivative(self.x)) * np.sqrt(self.P))
+        return float(abs(self.map.derivative(self.x)) * np.sqrt(self.P[0, 0]))
 
     @property
     def accel_bias(self) -> np.ndarray:
@@ -145,48 +137,50 @@ class MassFilter:
         a = min(max((t - self.t0) / span, 0.0), 1.0)
         return self.tuning.q_start + a * (self.tuning.q_end - self.tuning.q_start)
 
-    def predict(self, t: float) -> None:
-        """Random-walk prediction of the mass (scheduled) and of the bias."""
-        self.Ps[0, 0] += self.process_noise(t)
+    def predict(self, t: float, dt: float = 0.0, u=None) -> None:
+        """Random-walk prediction of the mass (scheduled at ``t``) and of the bias (``dt``, ``u`` unused)."""
+        self.P[0, 0] += self.process_noise(t)
         if self.nb:
-            self.Ps[1:, 1:] += self.tuning.q_accel_bias * np.eye(self.nb)
+            self.P[1:, 1:] += self.tuning.q_accel_bias * np.eye(self.nb)
 
-    def update(self, innovation, dz_dtheta, t: float):
-        """Correct with the measurement innovation ``z - z_hat`` and ``dz/dtheta`` (both (m,), NaN = missing).
+    def update(self, z):
+        """Correct with a linearised accelerations :class:`~postcapture.estimation.filter.Measurement`.
 
-        ``z_hat`` is the plant's prediction; the filter subtracts its own bias estimate. Returns the
-        update result (with ``nis``), or None when no component was valid.
+        ``z.value`` is the innovation ``z - z_hat`` of the plant copy's prediction (NaN = missing; the
+        filter subtracts its own bias estimate) and ``z.H`` is ``dz/dtheta`` (m,). Returns the update
+        result (with ``nis``), or None when no component was valid.
         """
-        nu = np.array(innovation, dtype=float)
+        nu = np.array(z.value, dtype=float)
+        dz = np.asarray(z.H, dtype=float)
         if self.nb:
             nu[:3] -= self.s[1:]
-        ok = np.isfinite(nu) & np.isfinite(dz_dtheta)
+        ok = np.isfinite(nu) & np.isfinite(dz)
         if not ok.any():
+            self.counts["measurements_missing"] += 1
             return None
         H = np.zeros((nu.size, 1 + self.nb))
-        H[:, 0] = np.asarray(dz_dtheta, dtype=float) * self.map.derivative(self.x)
+        H[:, 0] = dz * self.map.derivative(self.x)
         if self.nb:
             H[:3, 1:] = np.eye(3)
+        R = np.asarray(z.R, dtype=float)
         try:
-            res = kalman.update(np.zeros(1 + self.nb), self.Ps, nu[ok], H[ok], np.diag(self.tuning.R_diag[ok]),
-                                gate_probability=self.tuning.gate_probability)
+            res = kalman.update(np.zeros(1 + self.nb), self.P, nu[ok], H[ok], R[np.ix_(ok, ok)],
+                                gate_probability=self.gate(z.kind))
         except CovarianceError as exc:
-            self._fail(t, str(exc))
+            self.diverge(z.t, str(exc))
             return None
         if res.accepted:
             self.s = self.s + res.x
             # keep the pre-image where the sigmoid is not flat in floating point (|c x| < 30)
             limit = 30.0 / self.map.c
             self.s[0] = min(max(self.s[0], -limit), limit)
-            self.Ps = res.P
-        if not (np.all(np.isfinite(self.s)) and np.all(np.isfinite(self.Ps)) and self.Ps[0, 0] > 0):
-            self._fail(t, "non-finite or non-positive mass variance")
+            self.P = res.P
+        self.record(z.kind, z.t, res.nis, int(ok.sum()), res.accepted)
+        self.check_covariance(z.t, "update")
         return res
 
-    def _fail(self, t: float, cause: str) -> None:
-        self.diverged = True
-        self.cause = cause
-        self.message = f"diverged at t = {t:.6g} s: {cause}"
-        if self.raise_on_divergence:
-            raise FilterDivergenceError(self.name, t, cause)
-        logger.warning("%s %s", self.name, self.message)
+    def _recover(self, kind: str, t: float) -> None:
+        self.P = self.P * self.policy.inflation
+
+    def _reinitialise(self, t: float) -> None:
+        self.P = self._P0.copy()

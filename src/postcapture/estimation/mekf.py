@@ -27,7 +27,6 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
@@ -42,6 +41,9 @@ from postcapture.core.errors import (
     TimeGridError,
 )
 from postcapture.core.timegrid import default_tolerance, merge_times
+from postcapture.core.units import DEG, DEG_PER_HOUR
+from postcapture.estimation.attitude_ekf import REACQUIRE_ATTITUDE
+from postcapture.estimation.filter import FilterBase, Measurement
 from postcapture.estimation.history import EstimateHistory, SampledSignal, StepFlag
 
 __all__ = [
@@ -72,8 +74,6 @@ class MEKFTuning:
         Star-tracker rotation-error covariance in body components (rad^2).
     gate_probability : float or None
         Chi-square gate on the star-tracker NIS (3 degrees of freedom); None switches gating off.
-    max_consecutive_rejections : int
-        This many gated-out measurements in a row mean the filter has lost the attitude: divergence.
     name : str
         Name used in logs and errors.
     """
@@ -82,7 +82,6 @@ class MEKFTuning:
     sigma_u: float
     star_covariance: np.ndarray
     gate_probability: float | None = 0.9999
-    max_consecutive_rejections: int = 20
     name: str = "mekf"
 
     def __post_init__(self):
@@ -109,9 +108,6 @@ class MEKFTuning:
         p = self.gate_probability
         if p is not None and not (isinstance(p, (float, np.floating)) and 0.0 < p < 1.0):
             bad("gate_probability", "None or a number in (0, 1)", p)
-        m = self.max_consecutive_rejections
-        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
-            bad("max_consecutive_rejections", "an integer >= 1", m)
         if problems:
             raise ScenarioError(problems, source="MEKFTuning")
         R.setflags(write=False)
@@ -165,13 +161,8 @@ def process_noise(sigma_v: float, sigma_u: float, dt: float) -> np.ndarray:
     return np.kron(np.array([[q11, q12], [q12, q22]]), np.eye(3))
 
 
-@lru_cache(maxsize=16)
-def _threshold(probability: float, dim: int) -> float:
-    return kalman.gate_threshold(probability, dim)
-
-
-class MEKF:
-    """Stepper: propagate with gyro samples, correct with star-tracker quaternions.
+class MEKF(FilterBase):
+    """Stepper: propagate with gyro samples, correct with star-tracker quaternions (see :mod:`.filter`).
 
     Parameters
     ----------
@@ -185,15 +176,23 @@ class MEKF:
         Initial gyro-bias estimate (rad/s); zero by default.
     t0 : float
         Initial time (s).
-    raise_on_divergence : bool
-        Raise :class:`FilterDivergenceError` on divergence (default); otherwise mark the filter failed
-        (``status == "failed"``, ``message``) and refuse further steps.
+    recovery : RecoveryPolicy, optional
+        When a run of star-tracker innovations says the covariance no longer covers the error (a gyro
+        bias step, a lost attitude), the attitude and bias covariances are inflated and the bias gets
+        a one-off process-noise bump of ``bias_bump`` (rad/s) per axis; see :mod:`.filter`.
+    bias_bump : float
+        1-sigma added to the bias on a recovery (rad/s); by default 1 deg/h.
+    reacquire_bias : float
+        1-sigma of the bias after a divergence, when the filter starts again from the next star-tracker
+        samples (rad/s); by default 1 deg/s (the attitude is lost: the bias may be anything).
     """
 
-    def __init__(self, tuning: MEKFTuning, q0_BN, P0, *, bias0_B=None, t0: float = 0.0,
-                 raise_on_divergence: bool = True):
+    labels = ERROR_LABELS
+
+    def __init__(self, tuning: MEKFTuning, q0_BN, P0, *, bias0_B=None, t0: float = 0.0, recovery=None,
+                 bias_bump: float = DEG_PER_HOUR, reacquire_bias: float = DEG):
+        self._init_base(tuning.name, recovery, tuning.gate_probability)
         self.tuning = tuning
-        self.name = tuning.name
         self.q_BN = rot.normalize(_vec(q0_BN, "q0_BN", 4))
         self.bias_B = np.zeros(3) if bias0_B is None else _vec(bias0_B, "bias0_B", 3)
         P0 = np.asarray(P0, dtype=float)
@@ -202,53 +201,22 @@ class MEKF:
                 f"Incompatible dimensions of P0 matrix; expected (6, 6) but found {P0.shape}"
             )
         self.P = kalman.symmetrize(P0)
+        self._P0 = self.P.copy()
         self.t = float(t0)
-        self.raise_on_divergence = raise_on_divergence
-        self.status = "running"
-        self.message = ""
-        self.cause = ""
-        self.counts = {"updates": 0, "rejected": 0, "measurements_missing": 0, "inputs_missing": 0}
-        self._consecutive_rejections = 0
+        self.bias_bump = float(bias_bump)
+        self.reacquire_bias = float(reacquire_bias)
+        self.counts["inputs_missing"] = 0
         self._Q_cache: dict[float, np.ndarray] = {}
-        self._threshold = None if tuning.gate_probability is None else _threshold(tuning.gate_probability, 3)
-        self._check_covariance("initial covariance")
-
-    # -- lifecycle -------------------------------------------------------------------------------
-    def _diverge(self, cause: str) -> None:
-        self.status = "failed"
-        self.cause = cause
-        self.message = f"filter {self.name!r} diverged at t = {self.t:.6g} s: {cause}"
-        logger.error(self.message)
-        if self.raise_on_divergence:
-            raise FilterDivergenceError(self.name, self.t, cause)
-
-    def _ensure_running(self) -> None:
-        if self.status != "running":
-            raise RuntimeError(f"Attempt to step the failed filter {self.name!r}: {self.message}")
-
-    def _check_covariance(self, where: str) -> bool:
-        if not np.all(np.isfinite(self.P)):
-            self._diverge(f"{where}: covariance P is not finite")
-            return False
         try:
             np.linalg.cholesky(self.P)
         except np.linalg.LinAlgError:
-            self._diverge(f"{where}: covariance P is not positive definite")
-            return False
-        return True
+            raise ScenarioError([Problem("MEKF.P0", "a positive definite (6, 6) covariance", repr(P0))]) from None
 
-    # -- steps -----------------------------------------------------------------------------------
-    def predict(self, dt: float, omega_meas_B, *, t: float | None = None) -> None:
-        """Propagate over ``dt`` (s) with a gyro sample ``omega_meas_B`` (3,) (rad/s) held constant.
-
-        ``t`` sets the time reached (s) instead of accumulating ``t + dt``.
-        """
-        self._ensure_running()
-        w = _vec(omega_meas_B, "omega_meas_B", 3)
+    def predict(self, t: float, dt: float, u) -> None:
+        """Propagate from ``t`` over ``dt`` (s) with the gyro sample ``u`` (3,) (rad/s) held constant."""
+        w = _vec(u, "u (gyro sample)", 3)
         if not np.all(np.isfinite(w)):
-            raise ValueError(
-                "`omega_meas_B` must be finite; skip or hold missing gyro samples before calling predict"
-            )
+            raise ValueError("`u` must be finite; skip or hold missing gyro samples before calling predict")
         w = w - self.bias_B
         self.q_BN = rot.box_plus(self.q_BN, w * dt)
         Q = self._Q_cache.get(dt)
@@ -256,59 +224,46 @@ class MEKF:
             if len(self._Q_cache) > 64:  # irregular steps: keep the cache small
                 self._Q_cache.clear()
             Q = self._Q_cache[dt] = process_noise(self.tuning.sigma_v, self.tuning.sigma_u, dt)
-        Phi = error_transition(w, dt)
-        _, self.P = kalman.predict(np.zeros(6), self.P, Phi, Q)
-        self.t = self.t + dt if t is None else float(t)
-        self._check_covariance("prediction")
+        _, self.P = kalman.predict(np.zeros(6), self.P, error_transition(w, dt), Q)
+        self.t = float(t) + dt
+        self.check_covariance(self.t, "prediction")
 
-    def update(self, q_meas_BN, R=None) -> kalman.UpdateResult | None:
-        """Correct with a star-tracker quaternion (4,); ``R`` (3, 3) overrides ``tuning.star_covariance``.
+    def update(self, z) -> kalman.UpdateResult | None:
+        """Correct with a star-tracker :class:`~postcapture.estimation.filter.Measurement` (4,).
 
-        Returns the kernel's :class:`~postcapture.core.kalman.UpdateResult`, or None when the sample
-        is not finite (skipped and counted) or the filter diverged here (``raise_on_divergence=False``).
-        A sample rejected by the gate leaves the state unchanged (``result.accepted`` is False).
+        Returns the kernel's :class:`~postcapture.core.kalman.UpdateResult`, or None when the sample is
+        not finite (skipped and counted). A sample rejected by the gate leaves the state unchanged.
         """
-        self._ensure_running()
-        q = _vec(q_meas_BN, "q_meas_BN", 4)
+        q = _vec(z.value, "star-tracker value", 4)
         if not np.all(np.isfinite(q)) or not np.linalg.norm(q) > 0:
             self.counts["measurements_missing"] += 1
             return None
         innovation = rot.box_minus(q, self.q_BN)
-        R = self.tuning.star_covariance if R is None else R
         try:
-            res = kalman.update(np.zeros(6), self.P, innovation, _H, R)
+            res = kalman.update(np.zeros(6), self.P, innovation, _H, z.R, gate_probability=self.gate(z.kind))
         except CovarianceError as exc:
-            self._diverge(str(exc))
+            self.diverge(z.t, str(exc))
             return None
-        if not math.isfinite(res.nis):
-            self._diverge("innovation is not finite")
-            return None
-        if self._threshold is not None and res.nis > self._threshold:
-            self.counts["rejected"] += 1
-            self._consecutive_rejections += 1
-            logger.warning(
-                "%s: star-tracker sample at t = %.6g s rejected by the chi-square gate (NIS %.4g > %.4g)",
-                self.name, self.t, res.nis, self._threshold,
-            )
-            if self._consecutive_rejections >= self.tuning.max_consecutive_rejections:
-                angle = float(np.linalg.norm(innovation))
-                self._diverge(
-                    f"{self._consecutive_rejections} consecutive star-tracker samples rejected by the "
-                    f"innovation gate (last NIS {res.nis:.3g}, innovation angle {angle:.3g} rad)"
-                )
-                return None
-            return kalman.UpdateResult(
-                np.zeros(6), self.P, innovation, res.S, res.K, res.nis, False, self._threshold
-            )
-        self._consecutive_rejections = 0
-        self.counts["updates"] += 1
-        # reset: move the error into the attitude and the bias (the covariance reset Jacobian
-        # I - [dtheta x]/2 differs from I at second order only, and is left out as usual)
-        self.q_BN = rot.box_plus(self.q_BN, res.x[:3])
-        self.bias_B = self.bias_B + res.x[3:]
-        self.P = res.P
-        self._check_covariance("update")
+        if res.accepted:
+            # reset: move the error into the attitude and the bias (the covariance reset Jacobian
+            # I - [dtheta x]/2 differs from I at second order only, and is left out as usual)
+            self.q_BN = rot.box_plus(self.q_BN, res.x[:3])
+            self.bias_B = self.bias_B + res.x[3:]
+            self.P = res.P
+        self.record(z.kind, z.t, res.nis, 3, res.accepted)  # after the update: a recovery inflates the new P
+        if res.accepted:
+            self.check_covariance(z.t, "update")
         return res
+
+    def _recover(self, kind: str, t: float) -> None:
+        d = np.sqrt(self.policy.inflation)
+        self.P = self.P * d * d
+        self.P[3:, 3:] += self.bias_bump**2 * np.eye(3)
+
+    def _reinitialise(self, t: float) -> None:
+        self.P = self._P0.copy()
+        self.P[:3, :3] += REACQUIRE_ATTITUDE**2 * np.eye(3)  # lost: the next star-tracker sample decides
+        self.P[3:, 3:] += self.reacquire_bias**2 * np.eye(3)
 
 
 def _vec(v, name: str, n: int) -> np.ndarray:
@@ -319,7 +274,7 @@ def _vec(v, name: str, n: int) -> np.ndarray:
 
 
 def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0_BN, P0, *,
-             bias0_B=None, raise_on_divergence: bool = True) -> EstimateHistory:
+             bias0_B=None, raise_on_divergence: bool = True, recovery=None) -> EstimateHistory:
     """Run the MEKF through recorded gyro and star-tracker samples and record it at the instants ``t``.
 
     Parameters
@@ -342,8 +297,10 @@ def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0
     bias0_B : array_like, shape (3,), optional
         Initial bias estimate (rad/s), zero by default.
     raise_on_divergence : bool
-        If False, a divergence ends the run early and the history carries ``success=False``,
-        ``status=-1`` and the message; later columns are NaN and flagged ``DIVERGED``.
+        Raise after the run if the filter diverged; otherwise the history carries ``success=False``,
+        ``status=-1``, the message, and the flag ``DIVERGED`` from the divergence on (the filter
+        re-initialises there and goes on).
+    recovery : RecoveryPolicy, optional
 
     Returns
     -------
@@ -354,8 +311,8 @@ def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0
     Raises
     ------
     FilterDivergenceError
-        On divergence (covariance not finite or not positive definite, or too many consecutive gated
-        samples), naming the filter, the time and the cause; unless ``raise_on_divergence=False``.
+        On divergence (covariance not finite or not positive definite, or recoveries that did not
+        help), naming the filter, the time and the cause; unless ``raise_on_divergence=False``.
     DimensionError, TimeGridError
         On malformed inputs, or when no gyro sample precedes ``t[0]``.
     """
@@ -387,9 +344,9 @@ def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0
     q_hist, b_hist = np.full((4, n), np.nan), np.full((3, n), np.nan)
     P_hist, nis_hist = np.full((6, 6, n), np.nan), np.full(n, np.nan)
     flags = np.zeros(n, dtype=np.uint8)
-    f = MEKF(tuning, q0_BN, P0, bias0_B=bias0_B, t0=events[0], raise_on_divergence=raise_on_divergence)
+    f = MEKF(tuning, q0_BN, P0, bias0_B=bias0_B, t0=events[0], recovery=recovery)
     f.counts["inputs_missing"] = int(np.count_nonzero(~g_ok[g_in]))
-    pending, nis_now, diverged_at = StepFlag.NONE, np.nan, None
+    pending, nis_now = StepFlag.NONE, np.nan
     for e in range(events.size):
         if e > 0:
             k = gyro_at[e - 1]
@@ -397,30 +354,32 @@ def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0
                 pending |= StepFlag.INPUT_MISSING
                 k = last_ok[k]
             omega = g_val[:, k] if k >= 0 else f.bias_B  # nothing valid yet: assume zero rate
-            f.predict(events[e] - events[e - 1], omega, t=events[e])
+            f.predict(events[e - 1], events[e] - events[e - 1], omega)
         s = star_at[e]
-        if s >= 0 and f.status == "running":
+        if s >= 0:
             if not s_ok[s]:
                 pending |= StepFlag.MEASUREMENT_MISSING
                 f.counts["measurements_missing"] += 1
             else:
-                res = f.update(s_val[:, s])
+                res = f.update(Measurement("star_tracker", events[e], s_val[:, s], tuning.star_covariance))
                 if res is not None:
                     nis_now = res.nis
                     pending |= StepFlag.UPDATED if res.accepted else StepFlag.REJECTED
-        if f.status != "running":
-            diverged_at = np.searchsorted(t, events[e] - tol)
-            break
         o = out_at[e]
         if o >= 0:
             q_hist[:, o], b_hist[:, o], P_hist[:, :, o] = f.q_BN, f.bias_B, f.P
             nis_hist[o], flags[o] = nis_now, pending
             pending, nis_now = StepFlag.NONE, np.nan
-    success = diverged_at is None
-    if not success:
-        flags[diverged_at:] |= np.uint8(StepFlag.DIVERGED)
+    diverged = [e for e in f.events if e.kind == "diverged"]
+    success = not diverged
+    message = "completed"
+    if diverged:
+        flags[np.searchsorted(t, diverged[0].t - tol):] |= np.uint8(StepFlag.DIVERGED)
+        message = f"filter {f.name!r} diverged at t = {diverged[0].t:.6g} s: {diverged[0].cause}"
+        if raise_on_divergence:
+            raise FilterDivergenceError(f.name, diverged[0].t, diverged[0].cause)
     return EstimateHistory(
         filter_name=tuning.name, t=t, q_BN=q_hist, P=P_hist, nis=nis_hist, flags=flags,
         error_labels=ERROR_LABELS, states={"gyro_bias_B": b_hist}, counts=dict(f.counts),
-        success=success, status=0 if success else -1, message="completed" if success else f.message,
+        success=success, status=0 if success else -1, message=message, events=tuple(f.events),
     )

@@ -51,6 +51,9 @@ class ProcessModel(Protocol):
     @mass.setter
     def mass(self, value: float) -> None: ...
 
+    def copy(self) -> "ProcessModel":
+        """An independent copy: filters work on their own copy and never change the caller's model."""
+
     def initial_state(self) -> np.ndarray:
         """The scenario's initial state ``x0`` (nx,)."""
 

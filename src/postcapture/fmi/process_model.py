@@ -100,6 +100,8 @@ class FMUProcessModel:
         import_fmpy()
         from fmpy import extract
 
+        self._init_args = dict(jacobians=jacobians, name=name, fd_step=fd_step, fd_mass_step=fd_mass_step,
+                               instance_name=instance_name)
         self.path = Path(path)
         self.label = str(self.path)
         md = open_model_description(self.path)
@@ -235,6 +237,10 @@ class FMUProcessModel:
         return None if any(n is None for n in names) else names
 
     # ------------------------------------------------------------------ protocol
+    def copy(self) -> "FMUProcessModel":
+        """A new instance of the same FMU and mapping (a filter's own copy of the plant)."""
+        return FMUProcessModel(self.path, self.mapping, **self._init_args)
+
     @property
     def mass(self) -> float:
         """Target mass used by the FMU (kg)."""

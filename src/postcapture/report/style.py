@@ -86,7 +86,8 @@ _DASHDOT = (0, (6.0, 2.0, 1.5, 2.0))
 CASE_STYLES: dict[str, CaseStyle] = {
     "ekf_flexible": CaseStyle("#0072B2", "-", 2.0, 3.0),
     "mekf_flexible": CaseStyle("#D55E00", _DASHED, 1.5, 3.2),
-    "joint_flexible": CaseStyle("#009E73", "-", 1.6, 3.4),
+    "dual": CaseStyle("#009E73", "-", 2.2, 3.6),
+    "joint": CaseStyle("#000000", _DOTTED, 2.0, 3.5),
     "ekf_stiff": CaseStyle("#56B4E9", "-", 2.0, 3.0),
     "mekf_stiff": CaseStyle("#E69F00", _DASHED, 1.5, 3.2),
     "ekf_flexible_partial": CaseStyle("#CC79A7", _DASHDOT, 1.6, 3.1),

@@ -1,0 +1,197 @@
+"""The recommended schemes' filters, built from a run plan: what they estimate, consider, and assume.
+
+Groups (:mod:`postcapture.estimation.parameters`) are estimated or considered as the scenario's
+``[estimation.tuning.<profile>]`` says (``estimate``, ``consider``); by default every group the
+``[uncertainty]`` declares uncertain is estimated, except the dampers, which are considered (their
+effect is small and slow to observe; estimating them buys little and costs states). A group that is
+not declared uncertain is known exactly.
+
+The prior of the filter's parameter coordinates is the declared prior itself, pushed through the
+filter's own coordinates: the second moment of ``eta(draw) - eta0`` over draws from the priors
+(:func:`~postcapture.dynamics.truth.draw_parameters`), with ``eta0`` the initial estimate (the nominal
+parameters with the initial mass error). It covers both the spread of the truth and the declared
+initial error, so the prior sigma means what it says in kg, m and kg m^2 wherever the estimate starts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from postcapture.campaign.setup import RunPlan
+from postcapture.config.uncertainty import Prior
+from postcapture.dynamics.parameters import dynamic_parameters, mass_properties
+from postcapture.dynamics.truth import draw_parameters
+from postcapture.estimation.augmented import AugmentedEKF, AugmentedTuning
+from postcapture.estimation.parameters import GROUPS, ParameterMap
+
+__all__ = ["parameter_groups", "parameter_prior", "initial_state_sensitivity", "build_augmented", "mass_bounds",
+           "PRIOR_DRAWS"]
+
+PRIOR_DRAWS = 4000
+_PRIOR_SEED = 0x9E3779B9
+
+
+def parameter_groups(plan: RunPlan) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The groups the recommended filters estimate and consider (see the module docstring)."""
+    unc = plan.scenario.uncertainty
+    declared = {
+        "target": True,  # the mass is always uncertain: it is what the filters are for
+        "panel_bending": unc.panel_bending is not None,
+        "panel_torsion": unc.panel_torsion is not None,
+        "panel_damping": unc.panel_damping is not None,
+        "arm_stiffness": unc.arm_stiffness is not None,
+        "arm_damping": unc.arm_damping is not None,
+    }
+    given = plan.scenario.estimation.tuning.get(plan.profile_name)
+    if given is not None and given.estimate is not None:
+        estimate = tuple(given.estimate)
+    else:
+        estimate = tuple(g for g in GROUPS if declared[g] and g not in ("panel_damping", "arm_damping"))
+    if given is not None and given.consider is not None:
+        consider = tuple(given.consider)
+    else:
+        consider = tuple(g for g in GROUPS if declared[g] and g not in estimate)
+    return estimate, consider
+
+
+def _with_mass_prior(scenario, sigma: float):
+    """The scenario with a target-mass prior (the declared one, or ``sigma`` when none is declared)."""
+    if scenario.uncertainty.target_mass is not None:
+        return scenario
+    unc = scenario.uncertainty.model_copy(update={"target_mass": Prior(sigma=sigma)})
+    return scenario.model_copy(update={"uncertainty": unc})
+
+
+def parameter_prior(plan: RunPlan, pmap: ParameterMap, draws: int = PRIOR_DRAWS, *,
+                    initial_mass: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Initial coordinates ``eta0`` and their covariance from the declared priors (see the module docstring).
+
+    ``initial_mass`` (kg) is the start of the estimate (the plan's by default; the nominal mass gives
+    the prior itself, about the nominal parameters).
+    """
+    names = pmap.model_names
+    p0 = pmap.p_nominal.copy()
+    if "target.m" in names:
+        hub = mass_properties(p0[:10])
+        hub.mass += (plan.initial_mass if initial_mass is None else initial_mass) - plan.nominal_mass
+        p0[:10] = dynamic_parameters(hub)
+    eta0 = pmap.from_model(p0)
+    scenario = _with_mass_prior(plan.scenario, plan.tuning.mass_prior_sigma)
+    rng = np.random.default_rng(_PRIOR_SEED)
+    D = np.empty((draws, pmap.size))
+    for i in range(draws):
+        p = pmap.p_nominal.copy()
+        for name, value in draw_parameters(scenario, rng).items():
+            p[names.index(name)] = value
+        D[i] = pmap.from_model(p) - eta0
+    P = D.T @ D / draws
+    P += 1e-12 * np.trace(P) / max(pmap.size, 1) * np.eye(pmap.size)  # a prior on a curve is nearly singular
+    return eta0, P
+
+
+def initial_state_sensitivity(model) -> np.ndarray:
+    """``d x0 / d p`` (n x n_p) of the model's initial state, by central differences of the set-up step.
+
+    The initial state follows from the scenario's initial conditions through the mass distribution and
+    the springs (relaxed deflections, the CoM at rest at the origin); steps of 1 kg, 1 kg m, 10 kg m^2 and
+    1e-3 of a factor.
+    """
+    p0 = model.params
+    S = np.zeros((model.n, p0.size))
+    for j, name in enumerate(model.param_names):
+        if name.startswith("target."):
+            eps = 10.0 if name.startswith("target.I") else 1.0
+        else:
+            eps = 1e-3
+        states = []
+        for s in (+1.0, -1.0):
+            p = p0.copy()
+            p[j] += s * eps
+            model.set_params(p)
+            states.append(model.initial_state())
+        S[:, j] = model.local(states[0], states[1]) / (2.0 * eps)
+    model.set_params(p0)
+    return S
+
+
+def model_noise_vector(model, noise) -> np.ndarray:
+    """Per-velocity-coordinate model noise (nv,) from ``{"chaser": ..., "arm": ..., "panels": ...}`` or a scalar."""
+    nv = model.n // 2
+    if np.isscalar(noise):
+        return np.full(nv, float(noise))
+    layout = model.system.layout
+    out = np.zeros(nv)
+    out[:6] = noise.get("chaser", 0.0)
+    out[list(layout.arm_v)] = noise.get("arm", 0.0)
+    for panel in layout.panels:
+        idx = [i for i in (panel.torsion_v, *panel.bending_v) if i is not None]
+        out[idx] = noise.get("panels", 0.0)
+    return out
+
+
+def build_augmented(plan: RunPlan, model, q0_BN, *, estimate_gyro_bias: bool, name: str) -> AugmentedEKF:
+    """An :class:`AugmentedEKF` for a plan: the groups, the prior, the tunings, the initial state."""
+    estimate, consider = parameter_groups(plan)
+    est_map = ParameterMap(model.param_names, model.params, estimate)
+    pmap = ParameterMap(model.param_names, model.params, est_map.groups + tuple(g for g in consider
+                                                                                   if g not in est_map.groups))
+    eta0, P_eta = parameter_prior(plan, pmap)
+    S0 = initial_state_sensitivity(model)
+    x0 = model.initial_state()
+    tun = plan.tuning
+    prof = plan.filter_profile
+    tuning = AugmentedTuning(
+        R_star=tun.star_covariance,
+        sigma_gyro_bias_walk=prof.gyro.sigma_u,
+        sigma_accel_bias_walk=prof.accelerometer.sigma_bias_walk,
+        P0_attitude=tun.attitude_P0,
+        P0_gyro_bias=tun.gyro_bias_initial_sigma**2,
+        P0_accel_bias=tun.accelerometer_bias_initial_sigma**2,
+        P0_state=1e-16,
+        model_noise=model_noise_vector(model, tun.model_noise),
+        estimate_gyro_bias=estimate_gyro_bias,
+        gate_probability=tun.gate_probability,
+    )
+    return AugmentedEKF(model, x0, params=pmap, n_consider=pmap.size - est_map.size, eta0=eta0, P_eta=P_eta, S0=S0,
+                        tuning=tuning, q0_BN=q0_BN, name=name)
+
+
+def mass_bounds(plan: RunPlan, progress=None) -> dict:
+    """Cramer-Rao bounds of the mass on the plan's truth: ``{"known_model": ..., "nuisance": ...}``.
+
+    ``known_model``: the mass is the only unknown of the plant (besides the biases and the initial
+    attitude); ``nuisance``: every parameter group the scenario declares uncertain is unknown too, with
+    its declared prior (the filters' own coordinates and prior). Both on the truth's model and noise.
+    """
+    from postcapture.campaign.cases import gyro_sample_sigma
+    from postcapture.dynamics.process_model import NativeProcessModel
+    from postcapture.estimation.crlb import mass_crlb
+
+    sc = plan.truth.scenario
+    model = NativeProcessModel(plan.truth.build(), sc.simulation.step, sc.simulation.integrator)
+    x0 = model.initial_state()
+    dx0 = initial_state_sensitivity(model)
+    prof = plan.truth_profile
+    common = dict(R_star=prof.star_tracker.covariance(), sigma_gyro=gyro_sample_sigma(prof),
+                  R_accel=np.concatenate([np.full(3, prof.accelerometer.sigma**2),
+                                          np.full(plan.scenario.n_arm, prof.joints.sigma**2)]),
+                  bias_priors=(plan.tuning.gyro_bias_initial_sigma**2, plan.tuning.accelerometer_bias_initial_sigma**2))
+    dpdm = model.system.dparams_dmass()
+    known = mass_crlb(model, x0, dx0, plan.t_grid, directions=dpdm[:, None], mass_gradient=np.ones(1),
+                      progress=None if progress is None else (lambda f: progress(0.5 * f)), **common)
+    estimate, consider = parameter_groups(plan)
+    nominal = NativeProcessModel(build_nominal(plan), sc.simulation.step, sc.simulation.integrator)
+    pmap = ParameterMap(model.param_names, nominal.params, estimate + tuple(g for g in consider if g not in estimate))
+    _, P_prior = parameter_prior(plan, pmap, initial_mass=plan.nominal_mass)
+    D = pmap.jacobian(pmap.from_model(model.params))
+    nuisance = mass_crlb(model, x0, dx0, plan.t_grid, directions=D, mass_gradient=D[0],
+                         prior_information=np.linalg.inv(P_prior),
+                         progress=None if progress is None else (lambda f: progress(0.5 + 0.5 * f)), **common)
+    return {"known_model": known, "nuisance": nuisance}
+
+
+def build_nominal(plan: RunPlan):
+    """The filters' (nominal) plant system of a plan."""
+    from postcapture.dynamics.build import build_system
+
+    return build_system(plan.scenario)

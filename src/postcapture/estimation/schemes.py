@@ -1,0 +1,197 @@
+"""The recommended schemes, as compositions of steppers over recorded measurements.
+
+- :func:`run_joint_scheme`: one :class:`~postcapture.estimation.augmented.AugmentedEKF` reads every
+  sensor (gyro, star tracker, accelerometer and joint accelerations) and carries the gyro bias.
+- :func:`run_dual_scheme`: the attitude filter (a model-free :class:`~postcapture.estimation.mekf.MEKF`
+  on gyro and star tracker) runs beside the parameter filter (an AugmentedEKF without a gyro bias of
+  its own). The attitude filter's output feeds the parameter filter: each gyro sample reaches it
+  corrected by the MEKF's bias estimate, with that estimate's covariance added to its noise. The
+  attitude solution never depends on the plant model, so a model error cannot corrupt it.
+
+In both, the measurements of one step are processed in the order gyro (the delta-angle of the step),
+star tracker, accelerations, all at the step's end.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from postcapture.estimation.dual import SensorSuite, on_grid
+from postcapture.estimation.filter import FilterStatus, Measurement
+from postcapture.estimation.history import EstimateHistory, StepFlag
+
+__all__ = ["SchemeResult", "run_joint_scheme", "run_dual_scheme"]
+
+
+@dataclass
+class SchemeResult:
+    """Histories of a scheme (time last) and its outcome.
+
+    ``attitude`` is the attitude estimate with its covariance; ``mass`` and ``mass_sigma`` the total
+    target mass (kg); ``params`` and ``params_sigma`` (n_p, n) the plant's parameter vector (its
+    ``param_names``) and their 1-sigma; ``events`` the filters' :class:`FilterEvent` lists.
+    """
+
+    attitude: EstimateHistory
+    mass: np.ndarray
+    mass_sigma: np.ndarray
+    mass_nis: np.ndarray
+    wall_s: float
+    counts: dict
+    params: np.ndarray | None = None
+    params_sigma: np.ndarray | None = None
+    param_names: tuple = ()
+    events: dict = field(default_factory=dict)
+
+
+class _Recorder:
+    def __init__(self, n_t: int, n_p: int, m_err: int):
+        self.q = np.full((4, n_t), np.nan)
+        self.P = np.full((m_err, m_err, n_t), np.nan)
+        self.nis = np.full(n_t, np.nan)
+        self.mass_nis = np.full(n_t, np.nan)
+        self.flags = np.zeros(n_t, dtype=np.uint8)
+        self.p = np.full((n_p, n_t), np.nan)
+        self.ps = np.full((n_p, n_t), np.nan)
+        self.mass = np.full(n_t, np.nan)
+        self.mass_sigma = np.full(n_t, np.nan)
+
+    def parameters(self, k: int, filt, panel_mass: float) -> None:
+        p = filt.parameters()
+        C = filt.parameter_covariance()
+        self.p[:, k] = p
+        self.ps[:, k] = np.sqrt(np.maximum(np.diag(C), 0.0))
+        self.mass[k] = p[0] + panel_mass
+        self.mass_sigma[k] = self.ps[0, k]
+
+    def flag(self, k: int, res, missing_flag=StepFlag.MEASUREMENT_MISSING) -> None:
+        if res is None:
+            self.flags[k] |= missing_flag
+        elif res.accepted:
+            self.flags[k] |= StepFlag.UPDATED
+        else:
+            self.flags[k] |= StepFlag.REJECTED
+
+
+def _grids(sensors: SensorSuite, t_grid):
+    star = on_grid(sensors.star, t_grid)
+    gyro = on_grid(sensors.gyro, t_grid)
+    z = np.vstack([on_grid(sensors.accel, t_grid), on_grid(sensors.joints, t_grid)])
+    return star, gyro, z
+
+
+def _finish(name, rec: _Recorder, t_grid, labels, counts, events, filt, wall0, m_err):
+    diverged = [e.t for evs in events.values() for e in evs if e.kind == "diverged"]
+    message = "completed" if not diverged else f"diverged at t = {min(diverged):.6g} s and re-initialised"
+    for t_d in diverged:
+        rec.flags[int(np.searchsorted(t_grid, t_d))  :][:1] |= np.uint8(int(StepFlag.DIVERGED))
+    history = EstimateHistory(
+        filter_name=name, t=t_grid, q_BN=rec.q, P=rec.P, nis=rec.nis, flags=rec.flags, error_labels=labels,
+        states={"mass": rec.mass[None, :], "mass_sigma": rec.mass_sigma[None, :]}, counts=counts,
+        success=not diverged, status=0 if not diverged else -1, message=message,
+    )
+    return SchemeResult(history, rec.mass, rec.mass_sigma, rec.mass_nis, time.perf_counter() - wall0, counts,
+                        rec.p, rec.ps, tuple(filt.model.param_names), events)
+
+
+def run_joint_scheme(filt, sensors: SensorSuite, t_grid, *, R_gyro, R_star, R_accel, panel_mass: float,
+                     progress=None, name: str = "joint") -> SchemeResult:
+    """Run an AugmentedEKF (with its gyro bias) through recorded sensors.
+
+    Parameters
+    ----------
+    filt : AugmentedEKF
+    sensors : SensorSuite
+    t_grid : ndarray (n,)
+        Uniform filter instants; the gyro sample at ``t_k`` is the mean rate over ``[t_k, t_k+1]``.
+    R_gyro, R_star : ndarray (3, 3)
+        Noise of a gyro sample (rad/s)^2 and of the star tracker (rad^2).
+    R_accel : ndarray (m,)
+        Variances of the accelerometer and joint-acceleration samples.
+    panel_mass : float
+        The target's panels' mass (kg), added to the hub's to give the total target mass.
+    """
+    wall0 = time.perf_counter()
+    t_grid = np.asarray(t_grid, dtype=float)
+    n_t, dt = t_grid.size, float(t_grid[1] - t_grid[0])
+    star, gyro, z = _grids(sensors, t_grid)
+    Rz = np.diag(R_accel)
+    att = filt.att
+    sel = np.r_[np.arange(att.start, att.stop), np.arange(filt.i_bg.start, filt.i_bg.stop)]
+    rec = _Recorder(n_t, len(filt.model.param_names), 6)
+
+    def record(k):
+        rec.q[:, k] = filt.q_BN
+        rec.P[..., k] = filt.P[np.ix_(sel, sel)]
+        rec.parameters(k, filt, panel_mass)
+
+    record(0)
+    for k in range(n_t - 1):
+        t, t1 = t_grid[k], t_grid[k + 1]
+        filt.predict(t, dt)
+        r = filt.update(Measurement("gyro", t1, gyro[:, k], R_gyro))
+        rec.flag(k + 1, r, StepFlag.INPUT_MISSING)
+        r = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
+        rec.flag(k + 1, r)
+        if r is not None and r.accepted:
+            rec.nis[k + 1] = r.nis
+        r = filt.update(Measurement("accelerations", t1, z[:, k + 1], Rz))
+        if r is not None and r.accepted:
+            rec.mass_nis[k + 1] = r.nis
+        record(k + 1)
+        if progress is not None and k % 50 == 0:
+            progress((k + 1) / (n_t - 1))
+    labels = ("dtheta_x", "dtheta_y", "dtheta_z", "dbias_x", "dbias_y", "dbias_z")
+    return _finish(name, rec, t_grid, labels, dict(filt.counts), {name: list(filt.events)}, filt, wall0, 6)
+
+
+def run_dual_scheme(mekf, filt, sensors: SensorSuite, t_grid, *, R_gyro, R_accel, panel_mass: float,
+                    progress=None, name: str = "dual") -> SchemeResult:
+    """Run the MEKF beside an AugmentedEKF without a gyro bias (see the module docstring).
+
+    Parameters are those of :func:`run_joint_scheme`; ``mekf`` is a
+    :class:`~postcapture.estimation.mekf.MEKF` (gyro-driven, star-tracker corrected).
+    """
+    wall0 = time.perf_counter()
+    t_grid = np.asarray(t_grid, dtype=float)
+    n_t, dt = t_grid.size, float(t_grid[1] - t_grid[0])
+    star, gyro, z = _grids(sensors, t_grid)
+    Rz = np.diag(R_accel)
+    rec = _Recorder(n_t, len(filt.model.param_names), 6)
+
+    def record(k):
+        rec.q[:, k] = mekf.q_BN
+        rec.P[..., k] = mekf.P
+        rec.parameters(k, filt, panel_mass)
+
+    record(0)
+    last = None
+    for k in range(n_t - 1):
+        t, t1 = t_grid[k], t_grid[k + 1]
+        w = gyro[:, k]
+        if np.all(np.isfinite(w)):
+            last = w
+        else:
+            rec.flags[k + 1] |= StepFlag.INPUT_MISSING
+        bias, P_b = mekf.bias_B.copy(), mekf.P[3:, 3:].copy()
+        if last is not None:
+            mekf.predict(t, dt, last)
+        r = mekf.update(Measurement("star_tracker", t1, star[:, k + 1], mekf.tuning.star_covariance))
+        rec.flag(k + 1, r)
+        if r is not None and r.accepted:
+            rec.nis[k + 1] = r.nis
+        filt.predict(t, dt)
+        filt.update(Measurement("gyro", t1, w - bias, R_gyro + P_b))
+        r = filt.update(Measurement("accelerations", t1, z[:, k + 1], Rz))
+        if r is not None and r.accepted:
+            rec.mass_nis[k + 1] = r.nis
+        record(k + 1)
+        if progress is not None and k % 50 == 0:
+            progress((k + 1) / (n_t - 1))
+    labels = ("dtheta_x", "dtheta_y", "dtheta_z", "dbias_x", "dbias_y", "dbias_z")
+    counts = {key: mekf.counts.get(key, 0) + filt.counts.get(key, 0) for key in set(mekf.counts) | set(filt.counts)}
+    events = {mekf.name: list(mekf.events), filt.name: list(filt.events)}
+    return _finish(name, rec, t_grid, labels, counts, events, filt, wall0, 6)
