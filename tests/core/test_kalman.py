@@ -146,3 +146,24 @@ def test_indefinite_innovation_covariance_raises():
 def test_bad_gate_probability_raises():
     with pytest.raises(ValueError, match="gate_probability"):
         kalman.update(np.zeros(1), np.eye(1), np.ones(1), np.eye(1), np.eye(1), gate_probability=1.0)
+
+
+def test_schmidt_consider_update_against_the_scalar_closed_form():
+    """z = x + c + v with c a consider parameter: x takes the gain (Px + Pxc) / S, c keeps its value and variance.
+
+    With S = Px + 2 Pxc + Pc + R and Kx = (Px + Pxc) / S: Px+ = Px - (Px + Pxc)^2 / S,
+    Pxc+ = Pxc - Kx (Pxc + Pc), Pc+ = Pc (Schmidt; Bierman, Factorization Methods, 1977, ch. VIII).
+    """
+    Px, Pxc, Pc, R = 4.0, 0.5, 2.0, 1.5
+    P = np.array([[Px, Pxc], [Pxc, Pc]])
+    nu = np.array([0.7])
+    res = kalman.update(np.array([1.0, -2.0]), P, nu, np.array([[1.0, 1.0]]), np.array([[R]]), consider=[1])
+    S = Px + 2 * Pxc + Pc + R
+    Kx = (Px + Pxc) / S
+    assert res.x == pytest.approx([1.0 + Kx * 0.7, -2.0], rel=1e-14)
+    assert res.P[0, 0] == pytest.approx(Px - (Px + Pxc) ** 2 / S, rel=1e-14)
+    assert res.P[0, 1] == pytest.approx(Pxc - Kx * (Pxc + Pc), rel=1e-14)
+    assert res.P[1, 1] == pytest.approx(Pc, rel=1e-14)
+    # the consider filter is more cautious than the full one, which would also move c and shrink Pc
+    full = kalman.update(np.array([1.0, -2.0]), P, nu, np.array([[1.0, 1.0]]), np.array([[R]]))
+    assert full.P[1, 1] < Pc and res.P[0, 0] >= full.P[0, 0]

@@ -97,6 +97,7 @@ class MainJobResult:
             "noise": self.noise,
             "crlb_mass_kg": self.crlb["nuisance"].as_dict() if self.crlb is not None else None,
             "crlb_known_model_mass_kg": self.crlb["known_model"].as_dict() if self.crlb is not None else None,
+            "crlb_parameters_only_mass_kg": self.crlb["parameters"].as_dict() if self.crlb is not None else None,
             "farrenkopf": self.farrenkopf,
             "cases": {name: c.metrics for name, c in self.cases.items()},
             "truth_wall_s": self.truth_wall_s,
@@ -262,6 +263,10 @@ def run_main_job(
     """
     plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
                     initial_mass_error=initial_mass_error, seed=seed, plant=plant, mapping=mapping)
+    if crlb or any(CASES[c].scheme in ("dual", "joint") for c in plan.cases):
+        from postcapture.campaign.robust import with_model_noise
+
+        plan = with_model_noise(plan)
     wall0 = time.perf_counter()
 
     def tell(msg, frac):

@@ -21,6 +21,7 @@ cluster of worker processes is started on 127.0.0.1.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import warnings
 import logging
@@ -31,14 +32,16 @@ from pathlib import Path
 
 import numpy as np
 
+from postcapture.campaign.cases import CASES
 from postcapture.campaign.main_job import draw_sensors, run_case, simulate_truth
+from postcapture.campaign.robust import with_model_noise
 from postcapture.campaign.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
 from postcapture.core.consistency import chi2_bounds
 from postcapture.core.errors import MissingExtraError, Problem, ScenarioError
 from postcapture.dynamics.trajectory import write_atomic
-from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, truth_vector_names
+from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, target_properties, truth_vector_names
 from postcapture.estimation.history import StepFlag
 
 __all__ = ["CampaignResult", "run_campaign", "run_one", "summarize"]
@@ -46,6 +49,8 @@ __all__ = ["CampaignResult", "run_campaign", "run_one", "summarize"]
 logger = logging.getLogger(__name__)
 
 _MANIFEST = "campaign.json"
+_RUN_ARRAYS = ("mass_error", "mass_sigma", "attitude_error", "attitude_sigma", "attitude_nees", "com_error",
+               "inertia_error")
 _RUNS = "runs"
 
 
@@ -55,9 +60,11 @@ def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
     seed = (plan.seed, int(r))
     if dispersed:
         truth = draw_truth(plan.scenario, seed)
+        noise = plan.tuning.model_noise
         plan = plan_run(plan.scenario, truth=truth, profile=plan.profile_name, duration=plan.duration,
                         cases=plan.cases, initial_mass_error=plan.initial_mass - plan.nominal_mass, seed=plan.seed,
                         plant=plan.plant, mapping=plan.mapping)
+        plan = dataclasses.replace(plan, tuning=dataclasses.replace(plan.tuning, model_noise=noise))
         traj = simulate_truth(plan)
     else:
         traj = shared_truth
@@ -78,7 +85,9 @@ def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
         for k in np.nonzero(ok)[0]:
             nees[k] = e[:, k] @ np.linalg.solve(P[:, :, k], e[:, k])
         diverged = np.nonzero(h.flagged(StepFlag.DIVERGED))[0]
+        target = _target_errors(plan, res, truth_vec, names)
         out["cases"][case] = {
+            **target,
             "mass_error": res.mass - m_true,
             "mass_sigma": res.mass_sigma,
             "attitude_error": e,
@@ -88,6 +97,21 @@ def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
             "message": h.message,
         }
     return out
+
+
+def _target_errors(plan: RunPlan, res, truth_vec, names) -> dict:
+    """Final errors of the whole target's centre of mass (m, 3, G frame) and inertia (kg m^2, 6), where estimated."""
+    nan = {"com_error": np.full(3, np.nan), "inertia_error": np.full(6, np.nan)}
+    p = getattr(res, "params", None)
+    if p is None or not np.all(np.isfinite(p[:10, -1])):
+        return nan
+    est = target_properties(plan.scenario, p[:10, -1])
+    t = dict(zip(names, truth_vec))
+    I = est.inertia
+    inertia = np.array([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])
+    true_I = np.array([t[f"target_I_{a}"] for a in ("xx", "yy", "zz", "xy", "xz", "yz")])
+    true_c = np.array([t[f"target_com_{a}"] for a in "xyz"])
+    return {"com_error": est.com - true_c, "inertia_error": inertia - true_I}
 
 
 def _task(payload: dict, r: int, shared_truth=None) -> dict:
@@ -104,7 +128,7 @@ def _save_run(folder: Path, result: dict) -> Path:
     arrays = {"truth": result["truth"], "true_mass": np.array(result["true_mass"])}
     meta = {"run": result["run"], "cases": {}}
     for case, c in result["cases"].items():
-        for key in ("mass_error", "mass_sigma", "attitude_error", "attitude_sigma", "attitude_nees"):
+        for key in _RUN_ARRAYS:
             arrays[f"{case}/{key}"] = c[key]
         meta["cases"][case] = {"diverged_at": c["diverged_at"], "message": c["message"]}
     arrays["meta"] = np.array(json.dumps(meta))
@@ -117,8 +141,7 @@ def _load_run(path: Path) -> dict:
         meta = json.loads(str(z["meta"]))
         out = {"run": meta["run"], "truth": z["truth"], "true_mass": float(z["true_mass"]), "cases": {}}
         for case, info in meta["cases"].items():
-            c = {key: z[f"{case}/{key}"] for key in ("mass_error", "mass_sigma", "attitude_error", "attitude_sigma",
-                                                     "attitude_nees")}
+            c = {key: z[f"{case}/{key}"] for key in _RUN_ARRAYS}
             c.update(info)
             out["cases"][case] = c
     return out
@@ -191,6 +214,12 @@ class CampaignResult:
                                    {"units": "rad", "long_name": "the filter's attitude 1-sigma"}),
                 "attitude_nees": (("run", "case", "time"), stack("attitude_nees"),
                                   {"units": "1", "long_name": "attitude NEES (3 degrees of freedom)"}),
+                "com_error": (("run", "case", "axis"), np.array([[run["cases"][c]["com_error"] for c in cases]
+                                                                 for run in self.runs]),
+                              {"units": "m", "long_name": "final error of the target's centre of mass, grasp frame"}),
+                "inertia_error": (("run", "case", "inertia_component"),
+                                  np.array([[run["cases"][c]["inertia_error"] for c in cases] for run in self.runs]),
+                                  {"units": "kg m2", "long_name": "final error of the target's inertia about its CoM"}),
                 "diverged_at": (("run", "case"), diverged,
                                 {"units": "s", "long_name": "time of divergence (NaN: none)"}),
                 "truth": (("run", "truth_parameter"), truth,
@@ -201,6 +230,7 @@ class CampaignResult:
                 "case": ("case", cases),
                 "time": ("time", self.t, {"units": "s"}),
                 "axis": ("axis", ["x", "y", "z"]),
+                "inertia_component": ("inertia_component", ["xx", "yy", "zz", "xy", "xz", "yz"]),
                 "truth_parameter": ("truth_parameter", list(self.truth_names)),
             },
             attrs={
@@ -226,6 +256,7 @@ def summarize(result: CampaignResult) -> dict:
     lo3, hi3 = chi2_bounds(3, n) if n else (float("nan"),) * 2
     crlb = result.crlb["nuisance"].all_sensors if result.crlb is not None else None
     crlb_known = result.crlb["known_model"].all_sensors if result.crlb is not None else None
+    crlb_params = result.crlb["parameters"].all_sensors if result.crlb is not None else None
     out = {"cases": {}, "runs": n, "dispersed": result.settings.get("dispersed", False),
            "profile": result.settings.get("profile"), "scenario": result.settings.get("scenario"),
            "wall_s": result.wall_s, "resumed_runs": result.resumed}
@@ -242,7 +273,13 @@ def summarize(result: CampaignResult) -> dict:
             att_nees = np.array([c["attitude_nees"] for c in rows])
             avg_m = np.nanmean(mass_nees[:, 1:], axis=0) if n else np.array([np.nan])
             avg_a = np.nanmean(att_nees[:, 1:], axis=0) if n else np.array([np.nan])
+        com = np.array([c["com_error"] for c in rows])
+        inertia = np.array([c["inertia_error"] for c in rows])
+        has_target = np.isfinite(com).all(axis=1) & ~failed
         out["cases"][case] = {
+            "com_error_rms_m": float(np.sqrt(np.mean(np.sum(com[has_target] ** 2, axis=1)))) if has_target.any() else None,
+            "inertia_error_rms_kgm2": (float(np.sqrt(np.mean(np.sum(inertia[has_target, :3] ** 2, axis=1) / 3)))
+                                       if has_target.any() else None),
             "mass_error_mean_kg": float(np.mean(err[ok])) if ok.any() else None,
             "mass_error_std_kg": float(np.std(err[ok], ddof=1)) if ok.sum() > 1 else None,
             "mass_error_rms_kg": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else None,
@@ -257,6 +294,7 @@ def summarize(result: CampaignResult) -> dict:
             "diverged_runs": diverged,
             "crlb_kg": crlb,
             "crlb_known_model_kg": crlb_known,
+            "crlb_parameters_only_kg": crlb_params,
         }
     return out
 
@@ -395,6 +433,8 @@ def run_campaign(
         raise ScenarioError(problems)
     plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
                     initial_mass_error=initial_mass_error)
+    if crlb or any(CASES[c].scheme in ("dual", "joint") for c in plan.cases):
+        plan = with_model_noise(plan)  # once, here: every run's filters share it
     if dispersed:
         check_priors(scenario)
         draw_truth(scenario, (plan.seed, 0))  # a prior that cannot give a physical truth fails here, not in a worker

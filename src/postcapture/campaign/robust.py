@@ -15,6 +15,8 @@ initial error, so the prior sigma means what it says in kg, m and kg m^2 whereve
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from postcapture.campaign.setup import RunPlan
@@ -22,10 +24,11 @@ from postcapture.config.uncertainty import Prior
 from postcapture.dynamics.parameters import dynamic_parameters, mass_properties
 from postcapture.dynamics.truth import draw_parameters
 from postcapture.estimation.augmented import AugmentedEKF, AugmentedTuning
+from postcapture.estimation.crlb import MassCRLB
 from postcapture.estimation.parameters import GROUPS, ParameterMap
 
 __all__ = ["parameter_groups", "parameter_prior", "initial_state_sensitivity", "build_augmented", "mass_bounds",
-           "PRIOR_DRAWS"]
+           "derive_model_noise", "with_model_noise", "bound_with_model_error", "PRIOR_DRAWS"]
 
 PRIOR_DRAWS = 4000
 _PRIOR_SEED = 0x9E3779B9
@@ -114,14 +117,46 @@ def initial_state_sensitivity(model) -> np.ndarray:
     return S
 
 
+def derive_model_noise(plan: RunPlan, *, min_time: float = 10.0) -> float:
+    """Model-error process noise (per filter step, on every plant velocity) from the declared truth discretisation.
+
+    The filters' panels have the nominal segments; the truth's may have ``truth_panel_segments``: a model
+    error no parameter describes. Both plants are simulated open loop at the nominal parameters under the
+    run's excitation, and the velocities get the random walk whose spread covers how far apart that
+    takes the chaser's body rates (what the gyro reads): ``q = max_t |d omega(t)|^2 / (t / dt)`` over
+    ``t >= min_time``. No declared discretisation (or the nominal one): no model noise.
+    """
+    from postcapture.dynamics.simulate import simulate
+
+    n_seg = plan.scenario.uncertainty.truth_panel_segments
+    if n_seg is None or all(p.segments == n_seg for _, p in plan.scenario.panels()):
+        return 0.0
+    nominal = simulate(plan.scenario, duration=plan.duration)
+    finer = simulate(plan.scenario.with_panel_segments(n_seg), duration=plan.duration)
+    steps = (nominal.t - nominal.t[0]) / plan.scenario.estimation.filter_step
+    late = nominal.t >= min_time
+    drift = np.max(np.abs(finer["omega_BN_B"] - nominal["omega_BN_B"]), axis=0)
+    return float(np.max(drift[late] ** 2 / steps[late]))
+
+
+def with_model_noise(plan: RunPlan) -> RunPlan:
+    """The plan with its model noise derived (:func:`derive_model_noise`) unless the scenario sets it."""
+    if plan.tuning.model_noise is not None:
+        return plan
+    return dataclasses.replace(plan, tuning=dataclasses.replace(plan.tuning, model_noise=derive_model_noise(plan)))
+
+
 def model_noise_vector(model, noise) -> np.ndarray:
     """Per-velocity-coordinate model noise (nv,) from ``{"chaser": ..., "arm": ..., "panels": ...}`` or a scalar."""
     nv = model.n // 2
+    if noise is None:
+        raise ValueError("model noise: derive it first (with_model_noise) or set estimation.tuning.<profile>.model_noise")
     if np.isscalar(noise):
         return np.full(nv, float(noise))
     layout = model.system.layout
     out = np.zeros(nv)
-    out[:6] = noise.get("chaser", 0.0)
+    out[:3] = noise.get("chaser_velocity", noise.get("chaser", 0.0))
+    out[3:6] = noise.get("chaser_rate", noise.get("chaser", 0.0))
     out[list(layout.arm_v)] = noise.get("arm", 0.0)
     for panel in layout.panels:
         idx = [i for i in (panel.torsion_v, *panel.bending_v) if i is not None]
@@ -129,8 +164,12 @@ def model_noise_vector(model, noise) -> np.ndarray:
     return out
 
 
-def build_augmented(plan: RunPlan, model, q0_BN, *, estimate_gyro_bias: bool, name: str) -> AugmentedEKF:
-    """An :class:`AugmentedEKF` for a plan: the groups, the prior, the tunings, the initial state."""
+def build_augmented(plan: RunPlan, model, q0_BN, *, estimate_gyro_bias: bool, name: str,
+                    model_noise=None) -> AugmentedEKF:
+    """An :class:`AugmentedEKF` for a plan: the groups, the prior, the tunings, the initial state.
+
+    ``model_noise`` overrides the plan's (derived or set) model-error process noise.
+    """
     estimate, consider = parameter_groups(plan)
     est_map = ParameterMap(model.param_names, model.params, estimate)
     pmap = ParameterMap(model.param_names, model.params, est_map.groups + tuple(g for g in consider
@@ -148,7 +187,7 @@ def build_augmented(plan: RunPlan, model, q0_BN, *, estimate_gyro_bias: bool, na
         P0_gyro_bias=tun.gyro_bias_initial_sigma**2,
         P0_accel_bias=tun.accelerometer_bias_initial_sigma**2,
         P0_state=1e-16,
-        model_noise=model_noise_vector(model, tun.model_noise),
+        model_noise=model_noise_vector(model, tun.model_noise if model_noise is None else model_noise),
         estimate_gyro_bias=estimate_gyro_bias,
         gate_probability=tun.gate_probability,
     )
@@ -156,12 +195,74 @@ def build_augmented(plan: RunPlan, model, q0_BN, *, estimate_gyro_bias: bool, na
                         tuning=tuning, q0_BN=q0_BN, name=name)
 
 
+def bound_with_model_error(plan: RunPlan, model_noise, progress=None):
+    """The posterior Cramer-Rao bound of the mass with every declared parameter unknown and the model error.
+
+    For a system with process noise the bound follows the Riccati recursion of the information along the
+    true trajectory (Tichavsky, Muravchik and Nehorai, IEEE Trans. Signal Processing 46(5), 1998); with
+    additive Gaussian noise it is the covariance of the Kalman filter linearised at the truth. It is
+    computed as exactly that: an AugmentedEKF that estimates every declared group (none considered),
+    with the model-error process noise ``model_noise``, started at the true values with the declared
+    prior, reading noise-free measurements of the filters' own model at the truth's parameters, so that
+    its estimate never leaves the truth and its covariance is the bound. Returns the SchemeResult (its
+    ``mass_sigma`` is the bound over time).
+    """
+    from postcapture.campaign.cases import gyro_sample_sigma
+    from postcapture.dynamics.build import build_system
+    from postcapture.dynamics.process_model import NativeProcessModel
+    from postcapture.dynamics.simulate import simulate
+    from postcapture.estimation.dual import SensorSuite
+    from postcapture.estimation.schemes import run_joint_scheme
+    from postcapture.sensors.record import Measurements
+    from postcapture.campaign.sensing import interval_mean_rate
+
+    sc = plan.scenario
+    traj = simulate(sc, duration=plan.duration, parameters=plan.truth.parameters)
+    t = traj.t
+    ok = np.ones(t.size, dtype=bool)
+    sensors = SensorSuite(
+        star=Measurements("star_tracker", t, traj["q_BN"], ok, "1", 1.0 / sc.estimation.filter_step),
+        gyro=Measurements("gyro", t, interval_mean_rate(t, traj["q_BN"]), ok, "rad/s", 1.0),
+        accel=Measurements("accelerometer", t, traj["accel_B"], ok, "m/s^2", 1.0),
+        joints=Measurements("joints", t, traj["arm_ddq"], ok, "rad/s^2", 1.0),
+    )
+    model = NativeProcessModel(build_system(sc), sc.simulation.step, sc.simulation.integrator)
+    nominal = model.params
+    estimate, consider = parameter_groups(plan)
+    pmap = ParameterMap(model.param_names, nominal, estimate + tuple(g for g in consider if g not in estimate))
+    _, P_prior = parameter_prior(plan, pmap, initial_mass=plan.nominal_mass)
+    x0_nominal = model.initial_state()
+    model.system.update_parameters(plan.truth.parameters)
+    x0_true = model.initial_state()
+    S0 = initial_state_sensitivity(model)
+    model.set_params(nominal)
+    tun, prof = plan.tuning, plan.filter_profile
+    tuning = AugmentedTuning(
+        R_star=tun.star_covariance, sigma_gyro_bias_walk=prof.gyro.sigma_u,
+        sigma_accel_bias_walk=prof.accelerometer.sigma_bias_walk, P0_attitude=tun.attitude_P0,
+        P0_gyro_bias=tun.gyro_bias_initial_sigma**2, P0_accel_bias=tun.accelerometer_bias_initial_sigma**2,
+        model_noise=model_noise_vector(model, 0.0 if model_noise is None else model_noise), gate_probability=None,
+    )
+    p_true = nominal.copy()
+    for name, value in plan.truth.parameters.items():
+        p_true[model.param_names.index(name)] = value
+    filt = AugmentedEKF(model, x0_nominal, params=pmap, n_consider=0, eta0=pmap.from_model(p_true), P_eta=P_prior,
+                        S0=S0, tuning=tuning, q0_BN=traj["q_BN"][:, 0], name="bound")
+    filt.x = x0_true  # exactly on the truth (the constructor moves x0 to first order only)
+    R_accel = np.concatenate([np.full(3, prof.accelerometer.sigma**2), np.full(sc.n_arm, prof.joints.sigma**2)])
+    return run_joint_scheme(filt, sensors, plan.t_grid, R_gyro=gyro_sample_sigma(prof) ** 2 * np.eye(3),
+                            R_star=tun.star_covariance, R_accel=R_accel,
+                            panel_mass=sum(p.mass for p in sc.target.panels), progress=progress, name="bound")
+
+
 def mass_bounds(plan: RunPlan, progress=None) -> dict:
-    """Cramer-Rao bounds of the mass on the plan's truth: ``{"known_model": ..., "nuisance": ...}``.
+    """Cramer-Rao bounds of the mass on the plan's truth: ``{"known_model", "parameters", "nuisance"}``.
 
     ``known_model``: the mass is the only unknown of the plant (besides the biases and the initial
-    attitude); ``nuisance``: every parameter group the scenario declares uncertain is unknown too, with
-    its declared prior (the filters' own coordinates and prior). Both on the truth's model and noise.
+    attitude); ``parameters``: every parameter group the scenario declares uncertain is unknown too, with
+    its declared prior (the filters' own coordinates and prior); ``nuisance``: on top of that, the declared
+    model error (the process noise the filters use, :func:`bound_with_model_error`; the same as
+    ``parameters`` when there is none). All on the truth's model and noise.
     """
     from postcapture.campaign.cases import gyro_sample_sigma
     from postcapture.dynamics.process_model import NativeProcessModel
@@ -184,10 +285,17 @@ def mass_bounds(plan: RunPlan, progress=None) -> dict:
     pmap = ParameterMap(model.param_names, nominal.params, estimate + tuple(g for g in consider if g not in estimate))
     _, P_prior = parameter_prior(plan, pmap, initial_mass=plan.nominal_mass)
     D = pmap.jacobian(pmap.from_model(model.params))
-    nuisance = mass_crlb(model, x0, dx0, plan.t_grid, directions=D, mass_gradient=D[0],
-                         prior_information=np.linalg.inv(P_prior),
-                         progress=None if progress is None else (lambda f: progress(0.5 + 0.5 * f)), **common)
-    return {"known_model": known, "nuisance": nuisance}
+    parameters = mass_crlb(model, x0, dx0, plan.t_grid, directions=D, mass_gradient=D[0],
+                           prior_information=np.linalg.inv(P_prior),
+                           progress=None if progress is None else (lambda f: progress(0.4 + 0.3 * f)), **common)
+    nuisance = parameters
+    if plan.tuning.model_noise:
+        run = bound_with_model_error(plan, plan.tuning.model_noise,
+                                     progress=None if progress is None else (lambda f: progress(0.7 + 0.3 * f)))
+        # the per-sensor breakdown is the batch bound's (parameters only); this one is for all sensors together
+        nuisance = MassCRLB(all_sensors=float(run.mass_sigma[-1]), star_tracker=None, gyro=None, accelerometer=None,
+                            joints=None, accelerations_only=None, history=run.mass_sigma)
+    return {"known_model": known, "parameters": parameters, "nuisance": nuisance}
 
 
 def build_nominal(plan: RunPlan):

@@ -20,7 +20,8 @@ tuning                             reference                   realistic
                                    reference's c = 0.001 on (5000, 9000)
 ``gate_probability``               0.9999
 ``model_process_variance``         1e-16 (joint EKF, per step on each plant velocity)
-``model_noise``                    0 (the recommended schemes: model error left after their parameters)
+``model_noise``                    derived from the declared truth discretisation (the recommended schemes'
+                                   model error left after their parameters; ``campaign.robust``)
 =================================  ==========================  =========================================
 
 The mass prior's 1-sigma is ``[uncertainty] target_mass`` (RMS about the nominal), else 10 % of the
@@ -65,7 +66,7 @@ class ResolvedTuning:
     gate_probability: float
     model_process_variance: float
     mass_prior_sigma: float  # kg
-    model_noise: float
+    model_noise: float | dict | None  # None: derived from the declared truth discretisation (campaign.robust)
 
 
 def mass_prior_sigma(scenario: Scenario) -> float:
@@ -124,7 +125,7 @@ def resolve_tuning(scenario: Scenario, profile_name: str, profile: SensorProfile
         gate_probability=_pick(given.gate_probability, 0.9999),
         model_process_variance=_pick(given.model_process_variance, 1e-16),
         mass_prior_sigma=sigma_m,
-        model_noise=_pick(given.model_noise, 0.0),
+        model_noise=given.model_noise,
     )
 
 

@@ -27,7 +27,7 @@ from postcapture.dynamics.parameters import INERTIAL_NAMES, dynamic_parameters, 
 from postcapture.dynamics.system import System
 
 __all__ = ["TruthModel", "nominal_truth", "truth_from_scenario", "draw_parameters", "draw_truth",
-           "truth_vector_names", "check_priors"]
+           "truth_vector_names", "check_priors", "target_properties"]
 
 _TRUTH_STREAM = 0x7472757468  # keeps truth draws independent of the sensor-noise streams of the same seed
 _MAX_REDRAWS = 1000
@@ -75,12 +75,7 @@ class TruthModel:
         sc = self.scenario
         out: list[float] = []
         if sc.target is not None:
-            system = self.build()
-            hub = mass_properties(system.parameters()[:10])
-            whole = _whole_target(sc, hub)
-            pose = sc.target.grasp_to_com
-            R, p = pose.rotation(), pose.translation()
-            in_G = whole.transformed(R, p)
+            in_G = target_properties(sc, self.build().parameters()[:10])
             I = in_G.inertia
             out += [in_G.mass, *in_G.com, I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
         for (_, panel), (_, ref) in zip(sc.panels(), nominal.panels()):
@@ -115,6 +110,14 @@ def truth_vector_names(nominal: Scenario) -> tuple[str, ...]:
         names += ["arm.stiffness_scale", "arm.damping_scale"]
     names += ["gyro_bias_x", "gyro_bias_y", "gyro_bias_z", "accel_bias_x", "accel_bias_y", "accel_bias_z"]
     return tuple(names)
+
+
+def target_properties(scenario: Scenario, pi_hub) -> MassProperties:
+    """The whole target (hub of inertial parameters ``pi_hub`` in T, plus its undeformed panels) in the grasp
+    frame G: mass (kg), centre of mass (m) and inertia about it (kg m^2), G axes."""
+    whole = _whole_target(scenario, mass_properties(pi_hub))
+    pose = scenario.target.grasp_to_com
+    return whole.transformed(pose.rotation(), pose.translation())
 
 
 def _panel_mounts(scenario: Scenario, shift=np.zeros(3)):

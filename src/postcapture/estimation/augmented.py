@@ -53,9 +53,10 @@ class AugmentedTuning:
     P0_gyro_bias, P0_accel_bias : float
     P0_state : float
         Initial variance of every other plant coordinate, on top of what the parameters imply.
-    model_noise : float or ndarray (nv,)
-        Process noise added per step to the plant's velocity coordinates ((rad/s)^2 or (m/s)^2), one
-        value for all or one per coordinate: the model error the parameters do not describe.
+    model_noise : float, ndarray (nv,) or ndarray (n, n)
+        Process noise added per step to the plant: one variance for every velocity coordinate, one per
+        velocity coordinate ((rad/s)^2 or (m/s)^2), or a full covariance over the plant's tangent: the
+        model error the parameters do not describe.
     estimate_gyro_bias : bool
         Carry the gyro bias (the joint scheme); without it, the gyro samples must come corrected.
     gate_probability : float or None
@@ -156,7 +157,11 @@ class AugmentedEKF(FilterBase):
         self._dt = None
         nv = n // 2
         Q = np.zeros((N, N))
-        Q[range(nv, n), range(nv, n)] = np.broadcast_to(np.asarray(tuning.model_noise, dtype=float), (nv,))
+        noise = np.asarray(tuning.model_noise, dtype=float)
+        if noise.ndim == 2:
+            Q[:n, :n] = noise
+        else:
+            Q[range(nv, n), range(nv, n)] = np.broadcast_to(noise, (nv,))
         self._Q_rate = Q
         self.t = 0.0
 

@@ -31,14 +31,14 @@ __all__ = ["MassCRLB", "mass_crlb"]
 
 @dataclass
 class MassCRLB:
-    """One-sigma bounds on the mass (kg) from each sensor and from all of them, and over time."""
+    """One-sigma bounds on the mass (kg) from each sensor and from all of them (None: not computed), and over time."""
 
     all_sensors: float
-    star_tracker: float
-    gyro: float
-    accelerometer: float
-    joints: float
-    accelerations_only: float  # accelerometer and joints together
+    star_tracker: float | None
+    gyro: float | None
+    accelerometer: float | None
+    joints: float | None
+    accelerations_only: float | None  # accelerometer and joints together
     history: np.ndarray = field(default_factory=lambda: np.zeros(0))  # all sensors, data up to each instant
 
     def as_dict(self) -> dict:

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import textwrap
 import warnings
 
 import numpy as np
@@ -27,28 +28,39 @@ def _num(value, spec: str, width: int) -> str:
 def campaign_table(summary: dict) -> str:
     """The campaign's table, at most 80 columns wide."""
     kind = "dispersed truths" if summary.get("dispersed") else "one truth"
+    any_case = next(iter(summary["cases"].values()), {})
+    lo1, hi1 = any_case.get("nees_band", (float("nan"),) * 2)
     lines = [
         f"campaign '{summary.get('scenario')}', {summary.get('profile')} profile: {summary['runs']} runs, {kind}",
-        f"{'case':<16}{'mean':>8}{'std':>8}{'RMS':>8}{'in 3s':>7}{'NEES':>7}{'band':>13}{'att NEES':>9}{'div':>4}",
-        f"{'':<16}{'(kg)':>8}{'(kg)':>8}{'(kg)':>8}{'':>7}{'(1)':>7}{'':>13}{'(3)':>9}{'':>4}",
+        f"{'case':<16}{'mean':>8}{'std':>8}{'RMS':>8}{'3s sd':>8}{'in 3s':>7}{'NEES':>9}{'att NEES':>10}{'div':>5}",
+        f"{'':<16}{'(kg)':>8}{'(kg)':>8}{'(kg)':>8}{'(kg)':>8}{'':>7}{'(1)':>9}{'(3)':>10}{'':>5}",
     ]
     for name, c in summary["cases"].items():
-        band = c["nees_band"]
+        sd = None if c.get("mass_sigma_mean_kg") is None else 3.0 * c["mass_sigma_mean_kg"]
         lines.append(
             f"{name[:15]:<16}{_num(c['mass_error_mean_kg'], '.1f', 8)}{_num(c['mass_error_std_kg'], '.1f', 8)}"
-            f"{_num(c['mass_error_rms_kg'], '.1f', 8)}{_num(c['inside_3sigma_fraction'], '.0%', 7)}"
-            f"{_num(c['nees_mean'], '.3g', 7)}{f'[{band[0]:.2f},{band[1]:.2f}]':>13}"
-            f"{_num(c['attitude_nees_mean'], '.3g', 9)}{c['diverged_runs']:>4d}"
+            f"{_num(c['mass_error_rms_kg'], '.1f', 8)}{_num(sd, '.1f', 8)}{_num(c['inside_3sigma_fraction'], '.0%', 7)}"
+            f"{_num(c['nees_mean'], '.3g', 9)}{_num(c['attitude_nees_mean'], '.3g', 10)}{c['diverged_runs']:>5d}"
         )
-    any_case = next(iter(summary["cases"].values()), {})
+    notes = []
+    for n, c in summary["cases"].items():
+        if c.get("com_error_rms_m") is not None:
+            notes.append(f"{n}: final error RMS of the target's CoM {c['com_error_rms_m']:.3g} m, of its principal "
+                         f"inertia {c['inertia_error_rms_kgm2']:.3g} kg m^2.")
+    band = f"95 % NEES bands for {summary['runs']} runs: mass [{lo1:.2f}, {hi1:.2f}]"
     if any_case.get("attitude_nees_band"):
-        lo, hi = any_case["attitude_nees_band"]
-        lines.append(f"attitude NEES band (95 %, {summary['runs']} runs): [{lo:.2f}, {hi:.2f}]")
+        band += ", attitude [{:.2f}, {:.2f}]".format(*any_case["attitude_nees_band"])
+    notes.append(band + "; '3s sd': the filters' mean 3 sigma of the mass.")
     if any_case.get("crlb_kg"):
-        lines.append(f"Cramer-Rao bound on the mass (nominal model, every sensor): {any_case['crlb_kg']:.3g} kg")
+        text = f"Cramer-Rao bound on the mass, every sensor: {any_case['crlb_kg']:.3g} kg with the declared parameters unknown"
+        if any_case.get("crlb_known_model_kg"):
+            text += f", {any_case['crlb_known_model_kg']:.3g} kg with a known model"
+        notes.append(text + ".")
     if summary.get("resumed_runs"):
-        lines.append(f"resumed: {summary['resumed_runs']} runs were loaded from an interrupted campaign")
-    lines.append(f"wall time {summary['wall_s']:.1f} s")
+        notes.append(f"Resumed: {summary['resumed_runs']} runs were loaded from an interrupted campaign.")
+    notes.append(f"Wall time {summary['wall_s']:.1f} s.")
+    for note in notes:
+        lines += textwrap.wrap(note, 80, subsequent_indent="  ")
     return "\n".join(lines)
 
 

@@ -158,9 +158,16 @@ def results_table(summary: dict, *, width: int = WIDTH) -> str:
             notes += wrap(f"{n}: {m.get('message') or 'diverged'}", indent="  ", width=width)
     crlb = summary.get("crlb_mass_kg")
     if crlb:
-        notes += wrap(f"Cramer-Rao bound on the mass (1 sigma): {crlb['all_sensors']:.3g} kg with every sensor, "
-                      f"{crlb['accelerations_only']:.3g} kg from the accelerations alone (what a dual mass "
-                      "filter sees)", indent="  ", width=width)
+        params = summary.get("crlb_parameters_only_mass_kg") or {}
+        known = summary.get("crlb_known_model_mass_kg") or {}
+        text = (f"Cramer-Rao bound on the mass (1 sigma, every sensor): {crlb['all_sensors']:.3g} kg with the "
+                "declared uncertain parameters, the biases and the declared model error unknown")
+        if params.get("all_sensors") is not None and params["all_sensors"] != crlb["all_sensors"]:
+            text += f"; {params['all_sensors']:.3g} kg without the model error"
+        if known.get("all_sensors") is not None:
+            text += (f"; {known['all_sensors']:.3g} kg for a known model ({known['accelerations_only']:.3g} kg from "
+                     "the accelerations alone, what the reference's mass filter sees)")
+        notes += wrap(text, indent="  ", width=width)
     far = summary.get("farrenkopf") or {}
     for n, v in far.items():
         if isinstance(v, dict) and "ratio" in v:
