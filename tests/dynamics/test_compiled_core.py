@@ -249,3 +249,19 @@ def test_a_run_cut_into_chunks_is_the_same_run(system):
                              progress=lambda fraction: None)
     np.testing.assert_array_equal(whole.q, chunks.q)
     np.testing.assert_array_equal(whole["accel_B"], chunks["accel_B"])
+
+
+def test_a_tolerance_sets_the_truth_step(envisat):
+    """With a tolerance the truth runs SDIRK4 at a step that divides the sample period; without, the
+    scenario's integrator and step."""
+    from postcapture.config.schema import ARCSEC
+    from postcapture.dynamics.simulate import simulate
+
+    accurate = envisat.with_updates(simulation={**envisat.simulation.model_dump(), "tolerance": ARCSEC})
+    traj = simulate(accurate, duration=12.0)
+    assert traj.attrs["integrator"] == "sdirk4"
+    ratio = envisat.simulation.sample_period / traj.attrs["step_s"]
+    assert ratio == round(ratio) and ratio >= 2
+    plain = simulate(envisat, duration=2.0)
+    assert plain.attrs["integrator"] == envisat.simulation.integrator
+    assert plain.attrs["step_s"] == envisat.simulation.step

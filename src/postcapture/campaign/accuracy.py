@@ -3,7 +3,7 @@
 Every method runs the default scenario on the compiled core at several steps; its largest deviation
 from a converged reference (RK4 at 0.25 ms, which resolves every mode including the 213 Hz arm modes)
 is set against its CPU time, forced (the scenario's manoeuvre) and free. The implicit methods accept
-Newton's iterations as a truth at the scenario's tolerance does (:func:`~postcapture.dynamics.accuracy.newton_for`).
+Newton's iterations as a truth at the scenario's tolerance (1 arcsec when it sets none) does (:func:`~postcapture.dynamics.accuracy.newton_for`).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import numpy as np
 
 from postcapture.config import load_scenario
 from postcapture.core.rotations import rotation_angle
+from postcapture.config.schema import ARCSEC as ARCSEC_RAD
 from postcapture.dynamics.accuracy import newton_for
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.simulate import simulate_system
@@ -67,7 +68,7 @@ def integrator_accuracy(
     panel = scenario.target.panels[0].name if scenario.target and scenario.target.panels else scenario.chaser.panels[0].name
     sp = scenario.simulation.sample_period
     # every implicit method with the Newton acceptance a truth at the scenario's tolerance gets
-    newton = newton_for(scenario.simulation.tolerance) if scenario.simulation.tolerance else None
+    newton = newton_for(scenario.simulation.tolerance or ARCSEC_RAD)
     out: dict = {"duration_s": duration, "reference": f"rk4 h={ref_step}"}
     for label, forced in (("forced", True), ("free", False)) if free else (("forced", True),):
         system = build_system(scenario, excitation=forced)

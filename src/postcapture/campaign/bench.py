@@ -71,10 +71,12 @@ def compile_time() -> float:
 
 
 def _rtf(scenario, n: int, duration: float, repeats: int, tolerance: float | None) -> dict:
+    from postcapture.config.schema import ARCSEC
+
     sim = scenario.simulation
     system = build_system(scenario, panel_segments=n)
     q0, v0 = initial_state(system)
-    tol = sim.tolerance if tolerance is None else tolerance
+    tol = tolerance if tolerance is not None else (sim.tolerance or ARCSEC)
     t0 = time.process_time()
     step = choose_step(system, q0, v0, duration=duration, sample_period=sim.sample_period, tolerance=tol,
                        joint_tolerance=sim.joint_tolerance, method=sim.truth_integrator)
@@ -111,7 +113,7 @@ def run_benchmark(
     """Measure the compiled plant on the default scenario (keys of ``postcapture bench --json``).
 
     Returns ``rtf_n5``, ``rtf_n50``, ``rtf_n200``: simulated seconds per CPU second of the truth at the
-    scenario's default accuracy (its step chosen by :func:`~postcapture.dynamics.accuracy.choose_step`,
+    scenario's tolerance, 1 arcsec when it sets none (its step chosen by :func:`~postcapture.dynamics.accuracy.choose_step`,
     the choice included), every output recorded; ``rtf_n5_1arcsec``: the same at N = 5 with a 1 arcsec
     attitude tolerance; ``predict_ms_n5``, ``predict_ms_n50``: one filter prediction with every Jacobian
     (state, inputs, parameters, measurement); ``compile_s``: compiling the core from scratch;
@@ -124,7 +126,7 @@ def run_benchmark(
     scenario = load_scenario(scenario_name)
     sim = scenario.simulation
     out: dict = {"scenario": scenario_name, "duration_s": duration, "integrator": sim.truth_integrator,
-                 "tolerance_rad": sim.tolerance, "joint_tolerance_rad": sim.joint_tolerance,
+                 "tolerance_rad": sim.tolerance or ARCSEC, "joint_tolerance_rad": sim.joint_tolerance,
                  "sample_period_s": sim.sample_period}
     say("compile time of the plant core")
     out["compile_s"] = compile_time()

@@ -108,12 +108,7 @@ class MainJobResult:
 def simulate_truth(plan: RunPlan, progress: Callable[[float], None] | None = None):
     """The truth trajectory of a plan (its own scenario, discretisation and parameters)."""
     truth = plan.truth
-    # The truth integrates with the filters' integrator and step, as the reference did (the estimators'
-    # tunings assume it): the scenario's accuracy tolerance (SDIRK4 at about 0.025 s, 78x more accurate
-    # over 300 s) would put a model mismatch under every filter that the joint filter does not absorb yet.
-    sim = truth.scenario.simulation
-    return simulate(truth.scenario, duration=plan.duration, parameters=truth.parameters, progress=progress,
-                    integrator=sim.integrator, step=sim.step)
+    return simulate(truth.scenario, duration=plan.duration, parameters=truth.parameters, progress=progress)
 
 
 def draw_sensors(plan: RunPlan, traj, seed: int):

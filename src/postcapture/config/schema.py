@@ -168,7 +168,8 @@ class Simulation(Frozen):
     """Run settings: duration, integrator, its step and the output sample period (s).
 
     ``tolerance`` and ``joint_tolerance`` (rad) are the accuracy of the truth simulation on the attitude
-    and on the joint angles over the run: its step follows from them (:func:`postcapture.dynamics.accuracy.choose_step`, ``truth_integrator``);
+    and on the joint angles over the run (1 arcsec is ``4.85e-6``): when ``tolerance`` is set, the truth's
+    step follows from them (:func:`postcapture.dynamics.accuracy.choose_step`, ``truth_integrator``);
     ``None`` runs the truth at ``integrator`` and ``step``, which are also the filters' model settings.
     """
 
@@ -176,7 +177,7 @@ class Simulation(Frozen):
     integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk3"
     step: PositiveFloat = 0.1
     sample_period: PositiveFloat = 0.1
-    tolerance: PositiveFloat | None = ARCSEC
+    tolerance: PositiveFloat | None = None
     joint_tolerance: PositiveFloat | None = 1.0e-4
     truth_integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
 
