@@ -1,4 +1,9 @@
-"""Writing the main job's results: a self-describing NetCDF file, the JSON summary, the table, figures."""
+"""Writing the main job's results: a self-describing NetCDF file, the JSON summary, the table, figures.
+
+They are written as one set (:class:`postcapture.io.ResultSet`): a reader of the folder sees the previous
+complete set or the new complete set, never a mix, and a failure (full disk, Ctrl-C, a kill) leaves
+the previous set as it was.
+"""
 
 from __future__ import annotations
 
@@ -8,9 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from postcapture.core import rotations as rot
-from postcapture.dynamics.trajectory import write_atomic
+from postcapture.io import ResultSet
 
-__all__ = ["to_dataset", "write_results"]
+__all__ = ["RUN_FILES", "to_dataset", "write_results"]
+
+RUN_FILES = ("results.nc", "summary.json", "table.txt", "fig*.png")
+"""Names a results folder of the main job holds (other entries of the folder are kept as they are)."""
 
 
 def to_dataset(result):
@@ -65,10 +73,17 @@ def to_dataset(result):
 
 
 def write_results(result, out_dir, figures: bool = True) -> dict:
-    """Write ``results.nc``, ``summary.json``, ``table.txt`` and the figures into ``out_dir``.
+    """Write ``results.nc``, ``summary.json``, ``table.txt`` and the figures into ``out_dir``, as one set.
 
-    Every file is written to a temporary name and renamed, so an interrupted run never leaves a
-    truncated file over an earlier result. Returns the paths written.
+    The files are written into a temporary folder beside ``out_dir``, which then replaces it in one
+    step; entries of ``out_dir`` that are not results of the main job are carried over. Returns the
+    paths written.
+
+    Raises
+    ------
+    OutputPathError
+        When ``out_dir`` is not a folder, cannot be written, or a file cannot be written (disk full);
+        the previous results are then left as they were.
     """
     from postcapture.report.estimation import (
         attitude_error_figure,
@@ -78,31 +93,30 @@ def write_results(result, out_dir, figures: bool = True) -> dict:
         results_table,
     )
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     summary = result.summary()
     paths = {}
-    paths["summary"] = write_atomic(out / "summary.json",
+    with ResultSet(out_dir, owned=RUN_FILES, kind="postcapture run") as rs:
+        paths["summary"] = rs.write("summary.json",
                                     lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2, default=float)))
-    paths["table"] = write_atomic(out / "table.txt", lambda tmp: Path(tmp).write_text(results_table(summary) + "\n"))
-    ds = to_dataset(result)
-    paths["results"] = write_atomic(out / "results.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
-    if not figures:
-        return paths
-    t = result.truth.t
-    names = list(result.cases)
-    figs = {
-        "fig4a_quaternion": quaternion_figure(t, result.truth["q_BN"],
-                                              {n: result.cases[n].result.attitude.q_BN for n in names}),
-        "fig5_mass": mass_figure(t, result.true_mass, {n: result.cases[n].result.mass for n in names},
-                                 {n: result.cases[n].result.mass_sigma for n in names}),
-        "fig6_mass_error": mass_error_figure(t, result.true_mass, {n: result.cases[n].result.mass for n in names},
-                                             result.crlb.all_sensors if result.crlb is not None else None),
-    }
-    for name in names:
-        i = names.index(name)
-        figs[f"fig4b_attitude_error_{name}"] = attitude_error_figure(
-            t, ds["attitude_error"].values[i], ds["attitude_sigma"].values[i], name)
-    for stem, fig in figs.items():
-        paths[stem] = write_atomic(out / f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
+        paths["table"] = rs.write("table.txt", lambda tmp: Path(tmp).write_text(results_table(summary) + "\n"))
+        ds = to_dataset(result)
+        paths["results"] = rs.write("results.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
+        if not figures:
+            return paths
+        t = result.truth.t
+        names = list(result.cases)
+        figs = {
+            "fig4a_quaternion": quaternion_figure(t, result.truth["q_BN"],
+                                                  {n: result.cases[n].result.attitude.q_BN for n in names}),
+            "fig5_mass": mass_figure(t, result.true_mass, {n: result.cases[n].result.mass for n in names},
+                                     {n: result.cases[n].result.mass_sigma for n in names}),
+            "fig6_mass_error": mass_error_figure(t, result.true_mass, {n: result.cases[n].result.mass for n in names},
+                                                 result.crlb.all_sensors if result.crlb is not None else None),
+        }
+        for name in names:
+            i = names.index(name)
+            figs[f"fig4b_attitude_error_{name}"] = attitude_error_figure(
+                t, ds["attitude_error"].values[i], ds["attitude_sigma"].values[i], name)
+        for stem, fig in figs.items():
+            paths[stem] = rs.write(f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
     return paths
