@@ -9,6 +9,7 @@ import pytest
 from postcapture.campaign.cases import CASES, dual_config, joint_tuning
 from postcapture.campaign.main_job import initial_state_and_sensitivity
 from postcapture.campaign.sensing import measure_all, resolve_profile
+from postcapture.campaign.tuning import resolve_tuning
 from postcapture.core import rotations as rot
 from postcapture.core.errors import FilterDivergenceError
 from postcapture.dynamics.build import build_system
@@ -25,6 +26,11 @@ def setup(envisat):
     profile = resolve_profile(envisat, "realistic")
     sensors = measure_all(truth, profile, np.random.default_rng(3))
     return envisat, truth, profile, sensors
+
+
+def _dual(sc, case, profile, m0):
+    return dual_config(CASES[case], profile, "realistic", resolve_tuning(sc, "realistic", profile, initial_mass=m0),
+                       sc.n_arm, m0)
 
 
 def _model(sc, theta0):
@@ -47,7 +53,7 @@ def test_missing_samples_are_skipped_and_counted(setup, attitude):
     valid[60] = False
     s2 = _with_star(sensors, star, valid)
     m, x0, S0 = _model(sc, sc.target.mass - 100.0)
-    cfg = dual_config(CASES[f"{attitude}_flexible"], profile, "realistic", sc.n_arm)
+    cfg = _dual(sc, f"{attitude}_flexible", profile, sc.target.mass - 100.0)
     res = run_dual(m, s2, cfg, x0=x0, theta0=sc.target.mass - 100.0, t_grid=truth.t, S0=S0, q0_BN=truth["q_BN"][:, 0])
     assert res.counts["measurements_missing"] == 2
     assert res.attitude.flagged(StepFlag.MEASUREMENT_MISSING)[[50, 60]].all()
@@ -60,7 +66,7 @@ def test_star_tracker_outlier_is_gated_and_logged(setup, caplog):
     sigma = profile.star_tracker.sigma_cross
     star[:, 80] = rot.box_plus(star[:, 80], np.array([100 * sigma, 0.0, 0.0]))  # a 100-sigma outlier
     m, x0, S0 = _model(sc, sc.target.mass)
-    cfg = dual_config(CASES["ekf_flexible"], profile, "realistic", sc.n_arm)
+    cfg = _dual(sc, "ekf_flexible", profile, sc.target.mass)
     with caplog.at_level(logging.INFO):
         res = run_dual(m, _with_star(sensors, star), cfg, x0=x0, theta0=sc.target.mass, t_grid=truth.t, S0=S0,
                        q0_BN=truth["q_BN"][:, 0])
@@ -76,7 +82,7 @@ def test_divergence_names_filter_time_and_cause(setup):
     star = sensors.star.values.copy()
     star[:, 100:] = rot.box_plus(star[:, 100:], np.array([0.3, 0.0, 0.0])[:, None] * np.ones(star[:, 100:].shape[1]))
     m, x0, S0 = _model(sc, sc.target.mass)
-    cfg = dual_config(CASES["ekf_flexible"], profile, "realistic", sc.n_arm)
+    cfg = _dual(sc, "ekf_flexible", profile, sc.target.mass)
     with pytest.raises(FilterDivergenceError, match=r"ekf_flexible/ekf. diverged at t = 11\.9 s: 20 star-tracker samples in a row rejected by the gate"):
         run_dual(m, _with_star(sensors, star), cfg, x0=x0, theta0=sc.target.mass, t_grid=truth.t, S0=S0,
                  q0_BN=truth["q_BN"][:, 0])
@@ -93,7 +99,9 @@ def test_joint_skips_missing_accelerations_and_stays_spd(setup):
     acc[:, 30:35] = np.nan
     s2 = dataclasses.replace(sensors, accel=dataclasses.replace(sensors.accel, values=acc))
     m, x0, S0 = _model(sc, sc.target.mass - 100.0)
-    res = run_joint(m, s2, joint_tuning(profile, "realistic", sc.n_arm), x0=x0, theta0=sc.target.mass - 100.0,
+    m0 = sc.target.mass - 100.0
+    tuning = joint_tuning(profile, resolve_tuning(sc, "realistic", profile, initial_mass=m0), sc.n_arm, m0)
+    res = run_joint(m, s2, tuning, x0=x0, theta0=m0,
                     t_grid=truth.t, S0=S0, q0_BN=truth["q_BN"][:, 0])
     assert np.all(np.isfinite(res.mass))
     for k in range(0, truth.t.size, 20):

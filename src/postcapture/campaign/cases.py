@@ -1,11 +1,11 @@
-"""The main job's estimation cases and their tunings, per sensor profile.
+"""The main job's estimation cases and how each is configured from the resolved tunings.
 
 Cases: the reference's four dual schemes {EKF, MEKF} x {flexible, stiff (k = 1e7) filter model}, and
-the joint EKF on the flexible model. Tunings:
+the joint EKF on the flexible model. Tunings come from :mod:`postcapture.campaign.tuning`:
 
 - ``reference`` profile: the reference's attitude EKF (R = 0.01^2 I3, Q = 0.0007^2 I3, P0 = 0.02^2 I3),
   its mass filter (R_theta = diag(1e-4 I3, 1e-2 I7), q from 20.1 to 0.1, sigmoid c = 0.001, a = 9000,
-  b = 5000), a MEKF with the gyro's own noise and the same star-tracker R;
+  b = 5000 for Envisat), a MEKF with the gyro's own noise and the same star-tracker R;
 - ``realistic`` profile: every filter's noise matched to the simulated sensors, the mass filter's
   process noise scheduled from 20.1 down to 1e-4 (a constant parameter), and the accelerometer bias
   estimated alongside the mass.
@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from postcapture.core.units import DEG_PER_HOUR
+from postcapture.campaign.tuning import ResolvedTuning, sigmoid_prior_variance
+from postcapture.core.sigmoid import SigmoidMap
 from postcapture.estimation.attitude_ekf import AttitudeEKFTuning
 from postcapture.estimation.dual import DualConfig
 from postcapture.estimation.joint import JointTuning
@@ -28,7 +29,7 @@ from postcapture.estimation.mass_filter import MassFilterTuning
 from postcapture.estimation.mekf import MEKFTuning
 from postcapture.sensors.profiles import SensorProfile
 
-__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "attitude_P0", "dual_config", "joint_tuning", "gyro_sample_sigma"]
+__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "dual_config", "joint_tuning", "gyro_sample_sigma"]
 
 
 @dataclass(frozen=True)
@@ -63,45 +64,43 @@ def gyro_sample_sigma(profile: SensorProfile) -> float:
     return float(np.sqrt(g.sigma_v**2 / dt + g.sigma_u**2 * dt / 12.0))
 
 
-def attitude_P0(profile: SensorProfile, profile_name: str) -> np.ndarray:
-    """Initial attitude covariance of every filter (the initial attitude errors are drawn from it)."""
+def _sigmoid(tuning: ResolvedTuning) -> SigmoidMap:
+    lo, hi = tuning.mass_bounds
+    return SigmoidMap(a=hi, b=lo, c=tuning.sigmoid_c)
+
+
+def dual_config(spec: CaseSpec, profile: SensorProfile, profile_name: str, tuning: ResolvedTuning, n_arm: int,
+                m0: float) -> DualConfig:
+    """The dual scheme of a case under a sensor profile and its resolved tunings; ``m0`` the initial mass (kg)."""
+    smap = _sigmoid(tuning)
+    R_z = np.concatenate([np.full(3, tuning.mass_accel_sigma**2), np.full(n_arm, tuning.mass_joint_sigma**2)])
+    q0, q1 = tuning.mass_process_variance
+    common = dict(R_diag=R_z, q_start=q0, q_end=q1, sensitivity=spec.mass_sensitivity, sigmoid=smap,
+                  P0=sigmoid_prior_variance(tuning, smap, m0))
     if profile_name == "reference":
-        return 0.02**2 * np.eye(3)
-    return 4.0 * profile.star_tracker.covariance()
-
-
-def _star_R(profile: SensorProfile, profile_name: str) -> np.ndarray:
-    return 0.01**2 * np.eye(3) if profile_name == "reference" else profile.star_tracker.covariance()
-
-
-def dual_config(spec: CaseSpec, profile: SensorProfile, profile_name: str, n_arm: int) -> DualConfig:
-    """The dual scheme of a case under a sensor profile."""
-    R_star = _star_R(profile, profile_name)
-    if profile_name == "reference":
-        mass = MassFilterTuning.reference(n_arm, sensitivity=spec.mass_sensitivity)
-        ekf = AttitudeEKFTuning.reference()
+        mass = MassFilterTuning(**common)
     else:
         acc = profile.accelerometer
-        R_z = np.concatenate([np.full(3, acc.sigma**2), np.full(n_arm, profile.joints.sigma**2)])
-        mass = MassFilterTuning(R_diag=R_z, q_start=20.1, q_end=1e-4, sensitivity=spec.mass_sensitivity,
-                                accel_bias=True, P0_accel_bias=max(2.0 * float(np.max(np.abs(acc.bias_B))), 5e-5) ** 2,
+        mass = MassFilterTuning(**common, accel_bias=True, P0_accel_bias=tuning.accelerometer_bias_initial_sigma**2,
                                 q_accel_bias=acc.sigma_bias_walk**2 / acc.rate)
-        # The plant copy's rates are not corrected: its attitude drifts with its rate error, which the
-        # mass uncertainty sets (mass-aware Q in the dual scheme); the floor covers the rest. Over 300 s
-        # and 10 seeds, a floor of 2e-7 rad gave a mean NEES of 4.1, 6e-7 gave 2.3, 4e-7 gives 2.6.
-        ekf = AttitudeEKFTuning(R=R_star, Q=(4e-7) ** 2 * np.eye(3), P0=attitude_P0(profile, profile_name))
-    mekf = MEKFTuning(sigma_v=profile.gyro.sigma_v, sigma_u=profile.gyro.sigma_u, star_covariance=R_star,
-                      name=f"{spec.name}/mekf")
+    # The realistic EKF's plant copy's rates are not corrected: its attitude drifts with its rate error, which
+    # the mass uncertainty sets (mass-aware Q in the dual scheme); the floor (attitude_process_sigma) covers
+    # the rest. Over 300 s and 10 seeds, a floor of 2e-7 rad gave a mean NEES of 4.1, 6e-7 gave 2.3, 4e-7 gives 2.6.
+    ekf = AttitudeEKFTuning(R=tuning.star_covariance, Q=tuning.attitude_process_sigma**2 * np.eye(3),
+                            P0=tuning.attitude_P0, gate_probability=tuning.gate_probability)
+    mekf = MEKFTuning(sigma_v=profile.gyro.sigma_v, sigma_u=profile.gyro.sigma_u, star_covariance=tuning.star_covariance,
+                      gate_probability=tuning.gate_probability, name=f"{spec.name}/mekf")
     mekf_P0 = np.zeros((6, 6))
-    mekf_P0[:3, :3] = attitude_P0(profile, profile_name)
-    mekf_P0[3:, 3:] = (0.2 * DEG_PER_HOUR) ** 2 * np.eye(3)
+    mekf_P0[:3, :3] = tuning.attitude_P0
+    mekf_P0[3:, 3:] = tuning.gyro_bias_initial_sigma**2 * np.eye(3)
     return DualConfig(spec.attitude, mass, ekf=ekf, mekf=mekf, mekf_P0=mekf_P0, shift_state=spec.shift_state,
                       mass_aware_q=(profile_name != "reference" and spec.mass_sensitivity == "total"), name=spec.name)
 
 
-def joint_tuning(profile: SensorProfile, profile_name: str, n_arm: int) -> JointTuning:
+def joint_tuning(profile: SensorProfile, tuning: ResolvedTuning, n_arm: int, m0: float) -> JointTuning:
     """The joint EKF's noise model: matched to the sensors (it is ours, not the reference's)."""
     acc = profile.accelerometer
+    smap = _sigmoid(tuning)
     R_z = np.concatenate([np.full(3, acc.sigma**2), np.full(n_arm, profile.joints.sigma**2)])
     return JointTuning(
         R_star=profile.star_tracker.covariance(),
@@ -109,11 +108,14 @@ def joint_tuning(profile: SensorProfile, profile_name: str, n_arm: int) -> Joint
         sigma_u=profile.gyro.sigma_u,
         R_accel=R_z,
         sigma_accel_bias_walk=acc.sigma_bias_walk,
-        P0_accel_bias=max(float(np.max(np.abs(acc.bias_B))) * 2.0, 5e-5) ** 2,
-        q_model=1e-16,
+        P0_accel_bias=tuning.accelerometer_bias_initial_sigma**2,
+        q_model=tuning.model_process_variance,
         P0_state=1e-16,
         q_mass_start=1e-6,
         q_mass_end=1e-6,
-        P0_attitude=attitude_P0(profile, profile_name),
-        P0_bias=(0.2 * DEG_PER_HOUR) ** 2,
+        P0_attitude=tuning.attitude_P0,
+        P0_bias=tuning.gyro_bias_initial_sigma**2,
+        P0_mass=sigmoid_prior_variance(tuning, smap, m0),
+        sigmoid=smap,
+        gate_probability=tuning.gate_probability,
     )

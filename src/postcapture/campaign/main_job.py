@@ -1,8 +1,10 @@
 """The main job: truth, sensors, the reference's four dual schemes and the joint EKF, metrics, results.
 
-One truth (the flexible model) and one set of measurements serve every case, as do the initial
-attitude error (drawn from the filters' P0) and the initial mass error; the cases run in parallel
-worker processes. The Cramer-Rao bound of the mass is computed on the same trajectory and noise.
+The truth (by default the nominal scenario; or another scenario file, or a draw from the declared
+priors) is simulated first; one set of measurements from it serves every case, as do the initial
+attitude error (drawn from the filters' P0) and the initial mass estimate (the nominal mass plus the
+initial error). Every filter is built from the nominal scenario. The cases run in parallel worker
+processes. The Cramer-Rao bound of the mass is computed on the truth's own model and noise.
 """
 
 from __future__ import annotations
@@ -13,19 +15,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from postcapture.campaign.cases import CASES, DEFAULT_CASES, attitude_P0, dual_config, gyro_sample_sigma, joint_tuning
+from postcapture.campaign.cases import CASES, DEFAULT_CASES, dual_config, gyro_sample_sigma, joint_tuning
 from postcapture.campaign.metrics import ARCSEC, case_metrics
 from postcapture.campaign.pool import run_jobs
-from postcapture.campaign.sensing import measure_all, resolve_profile
+from postcapture.campaign.sensing import measure_all
+from postcapture.campaign.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
-from postcapture.core.errors import ScenarioError, Problem
 from postcapture.core.farrenkopf import farrenkopf_steady_state
 from postcapture.dynamics.build import build_system
 from postcapture.dynamics.process_model import NativeProcessModel
 from postcapture.dynamics.simulate import simulate
+from postcapture.dynamics.truth import TruthModel
 
-__all__ = ["CaseOutput", "MainJobResult", "run_main_job", "initial_state_and_sensitivity"]
+__all__ = ["CaseOutput", "MainJobResult", "run_main_job", "initial_state_and_sensitivity", "simulate_truth",
+           "draw_sensors", "run_case"]
 
 
 def initial_state_and_sensitivity(model, mass: float, dm: float = 1.0):
@@ -71,17 +75,21 @@ class MainJobResult:
     wall_s: float = 0.0
     truth_wall_s: float = 0.0
     plant: str = "native"
+    nominal_mass: float = float("nan")
+    truth_info: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
-        """The JSON the CLI prints: ``{"cases": {name: {...}}, "wall_s": ...}`` plus context."""
+        """The JSON the CLI prints: ``{"cases": {name: {...}}, "truth": {...}, "wall_s": ...}`` plus context."""
         return {
             "scenario": self.scenario,
             "profile": self.profile,
             "plant": self.plant,
             "duration_s": self.duration_s,
             "true_mass_kg": self.true_mass,
+            "nominal_mass_kg": self.nominal_mass,
             "initial_mass_kg": self.initial_mass,
             "seed": self.seed,
+            "truth": self.truth_info,
             "noise": self.noise,
             "crlb_mass_kg": self.crlb.as_dict() if self.crlb is not None else None,
             "farrenkopf": self.farrenkopf,
@@ -91,55 +99,74 @@ class MainJobResult:
         }
 
 
-def _run_case(job: dict, progress=None):
-    """Worker: build the case's own plant copy and run its filter (top level, so it pickles)."""
+def simulate_truth(plan: RunPlan, progress: Callable[[float], None] | None = None):
+    """The truth trajectory of a plan (its own scenario, discretisation and parameters)."""
+    truth = plan.truth
+    return simulate(truth.scenario, duration=plan.duration, parameters=truth.parameters, progress=progress)
+
+
+def draw_sensors(plan: RunPlan, traj, seed: int):
+    """The truth's sensor records under the plan's faults, and the filters' initial attitude error (rad, 3)."""
+    rng = np.random.default_rng(seed)
+    sensors = measure_all(traj, plan.truth_profile, rng, plan.scenario.faults)
+    dq0 = np.linalg.cholesky(plan.tuning.attitude_P0) @ rng.standard_normal(3)
+    return sensors, dq0
+
+
+def run_case(plan: RunPlan, case: str, sensors, q0_true, dq0, progress=None):
+    """Run one case of a plan on recorded sensors; returns its result (a DualResult)."""
     from postcapture.estimation.dual import run_dual
     from postcapture.estimation.joint import run_joint
 
-    scenario = Scenario.model_validate(job["scenario"])
-    spec = CASES[job["case"]]
-    system = build_system(scenario, spec.variant)
-    native = NativeProcessModel(system, scenario.simulation.step, scenario.simulation.integrator, name=spec.name)
-    plant = job.get("plant", "native")
-    if plant == "native":
+    scenario = plan.scenario
+    spec = CASES[case]
+    theta0 = plan.initial_mass
+    native = NativeProcessModel(build_system(scenario, spec.variant), scenario.simulation.step,
+                                scenario.simulation.integrator, name=spec.name)
+    if plan.plant == "native":
         model = native
-        x0, S0 = initial_state_and_sensitivity(model, job["theta0"])
+        x0, S0 = initial_state_and_sensitivity(model, theta0)
     else:
         from postcapture.fmi import FMUProcessModel
 
-        model = FMUProcessModel(plant[len("fmu:"):], mapping=job.get("mapping"), name=spec.name)
-        model.mass = job["theta0"]
+        model = FMUProcessModel(plan.plant[len("fmu:"):], mapping=plan.mapping, name=spec.name)
+        model.mass = theta0
         if model.nx == native.nx and model.n == native.n:  # one of ours: same state layout as the native plant
-            x0, S0 = initial_state_and_sensitivity(native, job["theta0"])
+            x0, S0 = initial_state_and_sensitivity(native, theta0)
         else:  # another tool's FMU: its own start values, no initial sensitivity
             x0, S0 = model.initial_state(), np.zeros(model.n)
-    q0 = rot.box_plus(job["q_true0"], job["dq0"])
-    kwargs = dict(x0=x0, theta0=job["theta0"], t_grid=job["t_grid"], S0=S0, q0_BN=q0, raise_on_divergence=False,
-                  progress=progress)
+    q0 = rot.box_plus(np.asarray(q0_true, dtype=float), dq0)
+    t_grid = plan.t_grid
+    kwargs = dict(x0=x0, theta0=theta0, t_grid=t_grid, S0=S0, q0_BN=q0, raise_on_divergence=False, progress=progress)
     if spec.scheme == "dual":
-        cfg = dual_config(spec, job["profile"], job["profile_name"], scenario.n_arm)
-        result = run_dual(model, job["sensors"], cfg, **kwargs)
-    else:
-        result = run_joint(model, job["sensors"], joint_tuning(job["profile"], job["profile_name"], scenario.n_arm),
-                           name=spec.name, **kwargs)
-    return spec.name, result
+        cfg = dual_config(spec, plan.filter_profile, plan.profile_name, plan.tuning, scenario.n_arm, theta0)
+        return run_dual(model, sensors, cfg, **kwargs)
+    return run_joint(model, sensors, joint_tuning(plan.filter_profile, plan.tuning, scenario.n_arm, theta0),
+                     name=spec.name, **kwargs)
+
+
+def _run_case(job: dict, progress=None):
+    """Worker: one case (top level, so it pickles)."""
+    return job["case"], run_case(job["plan"], job["case"], job["sensors"], job["q_true0"], job["dq0"], progress)
 
 
 def _run_crlb(job: dict, progress=None):
     from postcapture.estimation.crlb import mass_crlb
 
-    scenario = Scenario.model_validate(job["scenario"])
-    model = NativeProcessModel(build_system(scenario), scenario.simulation.step, scenario.simulation.integrator)
+    plan: RunPlan = job["plan"]
+    sc = plan.truth.scenario
+    model = NativeProcessModel(plan.truth.build(), sc.simulation.step, sc.simulation.integrator)
     x0, S0 = initial_state_and_sensitivity(model, model.mass)
-    p = job["profile"]
-    return "crlb", mass_crlb(model, x0, S0, job["t_grid"], R_star=p.star_tracker.covariance(),
-                             sigma_gyro=gyro_sample_sigma(p), sigma_accel=p.accelerometer.sigma, sigma_joint=p.joints.sigma,
-                             progress=progress)
+    p = plan.truth_profile
+    return "crlb", mass_crlb(model, x0, S0, plan.t_grid, R_star=p.star_tracker.covariance(),
+                             sigma_gyro=gyro_sample_sigma(p), sigma_accel=p.accelerometer.sigma,
+                             sigma_joint=p.joints.sigma, progress=progress)
 
 
 def run_main_job(
     scenario: Scenario,
     *,
+    truth: TruthModel | None = None,
     profile: str = "reference",
     duration: float | None = None,
     cases=DEFAULT_CASES,
@@ -151,19 +178,22 @@ def run_main_job(
     mapping: str | None = None,
     progress: Callable[[str, float], None] | None = None,
 ) -> MainJobResult:
-    """Run the main job on a scenario.
+    """Run the main job: the filters on the nominal scenario, against a truth.
 
     Parameters
     ----------
     scenario : Scenario
+        The nominal scenario: every filter's model.
+    truth : TruthModel, optional
+        The simulated world (:mod:`postcapture.dynamics.truth`); the nominal scenario by default.
     profile : {"reference", "realistic"}
-        Sensor profile and tuning policy (see :mod:`postcapture.campaign.cases`).
+        Sensor profile and tuning policy (see :mod:`postcapture.campaign.tuning`).
     duration : float, optional
         Seconds (default: the scenario's).
     cases : sequence of str
         Case names among :data:`postcapture.campaign.cases.CASES`.
     initial_mass_error : float, optional
-        Added to the true mass to start the mass estimates (default: the scenario's, -100 kg).
+        Added to the nominal mass to start the mass estimates (default: the scenario's, -100 kg).
     seed : int, optional
         Seed of the sensor noise and initial attitude errors (default: the scenario's).
     workers : int
@@ -176,23 +206,15 @@ def run_main_job(
     mapping : str, optional
         The FMU's mapping TOML (default: the one inside the FMU or next to it).
     progress : callable(message, fraction), optional
+
+    Raises
+    ------
+    ScenarioError
+        For any bad setting, before anything is simulated (see :func:`postcapture.campaign.setup.plan_run`).
     """
-    unknown = [c for c in cases if c not in CASES]
-    if unknown:
-        raise ScenarioError([Problem("cases", f"names among {', '.join(CASES)}", ", ".join(unknown))])
-    if profile not in ("reference", "realistic"):
-        raise ScenarioError([Problem("profile", "reference or realistic", repr(profile))])
-    if scenario.target is None:
-        raise ScenarioError([Problem("target", "a target whose mass to estimate", "none")])
-    if plant != "native" and not plant.startswith("fmu:"):
-        raise ScenarioError([Problem("plant", "native or fmu:PATH", repr(plant))])
+    plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
+                    initial_mass_error=initial_mass_error, seed=seed, plant=plant, mapping=mapping)
     wall0 = time.perf_counter()
-    est = scenario.estimation
-    seed = est.seed if seed is None else int(seed)
-    dm0 = est.initial_mass_error if initial_mass_error is None else float(initial_mass_error)
-    if abs(scenario.simulation.sample_period - est.filter_step) > 1e-12 or abs(scenario.simulation.step - est.filter_step) > 1e-12:
-        raise ScenarioError([Problem("estimation.filter_step", "equal to simulation.step and sample_period",
-                                     f"{est.filter_step} (step {scenario.simulation.step}, samples {scenario.simulation.sample_period})")])
 
     def tell(msg, frac):
         if progress is not None:
@@ -200,28 +222,24 @@ def run_main_job(
 
     tell("truth simulation", 0.0)
     t0 = time.perf_counter()
-    truth = simulate(scenario, duration=duration, progress=lambda f: tell("truth simulation", 0.15 * f))
+    traj = simulate_truth(plan, progress=lambda f: tell("truth simulation", 0.15 * f))
     truth_wall = time.perf_counter() - t0
-    rng = np.random.default_rng(seed)
-    sensor_profile = resolve_profile(scenario, profile)
-    sensors = measure_all(truth, sensor_profile, rng)
-    P0 = attitude_P0(sensor_profile, profile)
-    dq0 = np.linalg.cholesky(P0) @ rng.standard_normal(3)
-    m_true = float(scenario.target.mass)
-    theta0 = m_true + dm0
-    base = {"scenario": scenario.model_dump(), "t_grid": truth.t, "profile": sensor_profile, "profile_name": profile,
-            "sensors": sensors, "theta0": theta0, "q_true0": truth["q_BN"][:, 0], "dq0": dq0,
-            "plant": plant, "mapping": mapping}
-    jobs = [(_run_case, {**base, "case": c}) for c in cases]
+    sensors, dq0 = draw_sensors(plan, traj, plan.seed)
+    base = {"plan": plan, "sensors": sensors, "q_true0": traj["q_BN"][:, 0], "dq0": dq0}
+    jobs = [(_run_case, {**base, "case": c}) for c in plan.cases]
     if crlb:
         jobs.append((_run_crlb, base))
     outputs = run_jobs(jobs, workers=workers,
                        on_done=lambda name, done, total: tell(f"{name} done", 0.15 + 0.85 * done / total))
-    res = MainJobResult(scenario.name, profile, float(truth.t[-1] - truth.t[0]), m_true, theta0, seed, truth,
-                        truth_wall_s=truth_wall, plant=plant)
+    truth_info = plan.truth.describe(scenario)
+    m_true = truth_info["target_mass"]
+    res = MainJobResult(scenario.name, plan.profile_name, float(traj.t[-1] - traj.t[0]), m_true, plan.initial_mass,
+                        plan.seed, traj, truth_wall_s=truth_wall, plant=plan.plant, nominal_mass=plan.nominal_mass,
+                        truth_info=truth_info)
     res.crlb = outputs.pop("crlb", None)
-    for name in cases:
-        res.cases[name] = CaseOutput(name, outputs[name], case_metrics(outputs[name], truth["q_BN"], m_true))
+    for name in plan.cases:
+        res.cases[name] = CaseOutput(name, outputs[name], case_metrics(outputs[name], traj["q_BN"], m_true))
+    sensor_profile = plan.truth_profile
     st = sensor_profile.star_tracker
     bound = [farrenkopf_steady_state(s, sensor_profile.gyro.sigma_v, sensor_profile.gyro.sigma_u, 1.0 / st.rate)
              for s in (st.sigma_cross, st.sigma_cross, st.sigma_roll)]
@@ -233,7 +251,7 @@ def run_main_job(
             continue
         hist = case.result.attitude
         steady = hist.t >= hist.t[0] + 0.5 * (hist.t[-1] - hist.t[0])
-        e_B = rot.box_minus(truth["q_BN"][:, steady], hist.q_BN[:, steady])
+        e_B = rot.box_minus(traj["q_BN"][:, steady], hist.q_BN[:, steady])
         rms = np.sqrt(np.mean((axes.T @ e_B) ** 2, axis=1)) / ARCSEC
         res.farrenkopf[name] = {"empirical_arcsec": rms.tolist(),
                                 "ratio": (rms / np.array(res.farrenkopf["bound_arcsec"])).tolist()}

@@ -1,142 +1,452 @@
-"""Monte Carlo campaigns on Dask: one truth, many sensor-noise seeds, filter consistency.
+"""Monte Carlo campaigns on Dask: many runs of the main job's cases, over noise seeds and drawn truths.
 
-The truth is simulated once and scattered to the workers; each task draws its sensor noise and
-initial attitude error from its own seed and runs the requested cases. The consistency check is
-Bar-Shalom's: the attitude NEES averaged over the N runs at each instant should lie in the two-sided
-95 % chi-square band ``chi2.ppf([0.025, 0.975], 3 N) / N`` (and its time average too).
+Run ``r`` draws its sensor noise and initial attitude error from the seed ``(scenario seed, r)``; with
+``dispersed`` it also draws its truth from the scenario's ``[uncertainty]`` priors with the same seed
+(:func:`postcapture.dynamics.truth.draw_truth`), otherwise every run shares one truth (the nominal
+scenario, or the given one), simulated once. Every run is a Dask task; results are deterministic, so
+a worker that dies loses nothing (the scheduler runs its task again elsewhere) and a campaign gives the
+same numbers on any number of workers.
 
-Dask is an optional extra (``pip install 'postcapture[campaign]'``). Without a scheduler address a
-local cluster of worker processes is started; give ``scheduler="tcp://host:8786"`` for a real one.
+Each finished run is saved at once under ``OUT/runs/`` next to a manifest of the campaign's settings;
+started again with the same settings and ``OUT``, a campaign loads what is saved and runs the rest.
+
+Consistency is Bar-Shalom's: over ``N`` runs the NEES averaged across runs at each instant should lie in
+the two-sided 95 % chi-square band ``chi2.ppf([0.025, 0.975], N n) / N`` (``n`` the dimension); the
+summary gives its time average against that band, for the mass (n = 1) and the attitude (n = 3).
+
+Dask is an optional extra (``pip install 'postcapture[campaign]'``). Without a scheduler address a local
+cluster of worker processes is started on 127.0.0.1.
 """
 
 from __future__ import annotations
 
+import contextlib
+import json
+import warnings
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from postcapture.campaign.main_job import _run_case
-from postcapture.campaign.cases import CASES, attitude_P0
-from postcapture.campaign.sensing import measure_all, resolve_profile
+from postcapture.campaign.main_job import draw_sensors, run_case, simulate_truth
+from postcapture.campaign.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
 from postcapture.core.consistency import chi2_bounds
 from postcapture.core.errors import MissingExtraError, Problem, ScenarioError
-from postcapture.dynamics.simulate import simulate
+from postcapture.dynamics.trajectory import write_atomic
+from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, truth_vector_names
+from postcapture.estimation.history import StepFlag
 
-__all__ = ["MonteCarloResult", "monte_carlo"]
+__all__ = ["CampaignResult", "run_campaign", "run_one", "summarize"]
 
+logger = logging.getLogger(__name__)
 
-@dataclass
-class MonteCarloResult:
-    """Per-case consistency over the seeds."""
-
-    seeds: list
-    t: np.ndarray
-    nees: dict  # case -> (n_seeds, n_t) attitude NEES
-    mass_error: dict  # case -> (n_seeds, n_t) kg
-    mass_sigma: dict  # case -> (n_seeds, n_t) kg
-    wall_s: float
-
-    def summary(self) -> dict:
-        """Mean NEES over seeds and time, the share of instants inside the band, mass statistics."""
-        n = len(self.seeds)
-        lo, hi = chi2_bounds(3, n)
-        out = {"n_seeds": n, "nees_band_95": [lo, hi], "cases": {}, "wall_s": self.wall_s}
-        for name, nees in self.nees.items():
-            avg = np.nanmean(nees, axis=0)
-            err = self.mass_error[name][:, -1]
-            out["cases"][name] = {
-                "nees_mean": float(np.nanmean(avg[1:])),
-                "nees_inside_band": float(np.mean((avg[1:] >= lo) & (avg[1:] <= hi))),
-                "final_mass_error_mean_kg": float(np.mean(err)),
-                "final_mass_error_std_kg": float(np.std(err, ddof=1)) if n > 1 else float("nan"),
-                "final_mass_sigma_mean_kg": float(np.mean(self.mass_sigma[name][:, -1])),
-            }
-        return out
+_MANIFEST = "campaign.json"
+_RUNS = "runs"
 
 
-def _seed_task(truth_data: dict, base: dict, seed: int, cases) -> dict:
-    """Worker: sensors from this seed, then every case; returns small arrays only."""
-    rng = np.random.default_rng(seed)
-    truth = truth_data["traj"]
-    sensors = measure_all(truth, base["profile"], rng)
-    dq0 = np.linalg.cholesky(base["P0"]) @ rng.standard_normal(3)
-    out = {}
-    for case in cases:
-        _, res = _run_case({**base, "sensors": sensors, "dq0": dq0, "case": case}, None)
+# ---------------------------------------------------------------------------------------------- one run
+def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
+    """Run ``r`` of a campaign: its truth, its sensors, every case; small arrays only (time last)."""
+    seed = (plan.seed, int(r))
+    if dispersed:
+        truth = draw_truth(plan.scenario, seed)
+        plan = plan_run(plan.scenario, truth=truth, profile=plan.profile_name, duration=plan.duration,
+                        cases=plan.cases, initial_mass_error=plan.initial_mass - plan.nominal_mass, seed=plan.seed,
+                        plant=plan.plant, mapping=plan.mapping)
+        traj = simulate_truth(plan)
+    else:
+        traj = shared_truth
+    sensors, dq0 = draw_sensors(plan, traj, seed)
+    truth_vec = plan.truth.vector(plan.scenario)
+    names = truth_vector_names(plan.scenario)
+    m_true = float(truth_vec[names.index("target_mass")])
+    q_true = traj["q_BN"]
+    out = {"run": int(r), "truth": truth_vec, "true_mass": m_true, "cases": {}}
+    for case in plan.cases:
+        res = run_case(plan, case, sensors, q_true[:, 0], dq0)
         h = res.attitude
         ok = np.all(np.isfinite(h.q_BN), axis=0)
-        e = np.full((3, truth.t.size), np.nan)
-        e[:, ok] = rot.box_minus(truth["q_BN"][:, ok], h.q_BN[:, ok])
+        e = np.full((3, q_true.shape[1]), np.nan)
+        e[:, ok] = rot.box_minus(q_true[:, ok], h.q_BN[:, ok])
         P = h.P[:3, :3, :]
-        nees = np.array([e[:, k] @ np.linalg.solve(P[:, :, k], e[:, k]) if ok[k] else np.nan for k in range(e.shape[1])])
-        out[case] = (nees, res.mass - base["m_true"], res.mass_sigma)
+        nees = np.full(e.shape[1], np.nan)
+        for k in np.nonzero(ok)[0]:
+            nees[k] = e[:, k] @ np.linalg.solve(P[:, :, k], e[:, k])
+        diverged = np.nonzero(h.flagged(StepFlag.DIVERGED))[0]
+        out["cases"][case] = {
+            "mass_error": res.mass - m_true,
+            "mass_sigma": res.mass_sigma,
+            "attitude_error": e,
+            "attitude_sigma": np.sqrt(np.einsum("iik->ik", P)),
+            "attitude_nees": nees,
+            "diverged_at": float(h.t[diverged[0]]) if diverged.size else float("nan"),
+            "message": h.message,
+        }
     return out
 
 
-def monte_carlo(
+def _task(payload: dict, r: int, shared_truth=None) -> dict:
+    """Dask task: one run (module level, so it pickles)."""
+    import os
+
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    return run_one(payload["plan"], r, payload["dispersed"], shared_truth)
+
+
+# ---------------------------------------------------------------------------------------------- storage
+def _save_run(folder: Path, result: dict) -> Path:
+    arrays = {"truth": result["truth"], "true_mass": np.array(result["true_mass"])}
+    meta = {"run": result["run"], "cases": {}}
+    for case, c in result["cases"].items():
+        for key in ("mass_error", "mass_sigma", "attitude_error", "attitude_sigma", "attitude_nees"):
+            arrays[f"{case}/{key}"] = c[key]
+        meta["cases"][case] = {"diverged_at": c["diverged_at"], "message": c["message"]}
+    arrays["meta"] = np.array(json.dumps(meta))
+    path = folder / f"run_{result['run']:05d}.npz"
+    return write_atomic(path, lambda tmp: np.savez(open(tmp, "wb"), **arrays))
+
+
+def _load_run(path: Path) -> dict:
+    with np.load(path, allow_pickle=False) as z:
+        meta = json.loads(str(z["meta"]))
+        out = {"run": meta["run"], "truth": z["truth"], "true_mass": float(z["true_mass"]), "cases": {}}
+        for case, info in meta["cases"].items():
+            c = {key: z[f"{case}/{key}"] for key in ("mass_error", "mass_sigma", "attitude_error", "attitude_sigma",
+                                                     "attitude_nees")}
+            c.update(info)
+            out["cases"][case] = c
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- results
+@dataclass
+class CampaignResult:
+    """A campaign's runs and what they say.
+
+    Attributes
+    ----------
+    settings : dict
+        The campaign's settings (its manifest).
+    t : ndarray (n_t,)
+        Filter instants (s).
+    runs : list of dict
+        Per run (sorted by run index): ``truth`` vector, ``true_mass``, per-case histories.
+    truth_names : tuple of str
+    wall_s : float
+    resumed : int
+        Runs loaded from a previous, interrupted campaign.
+    crlb : object
+        The mass Cramer-Rao bound on the nominal model (None if not computed).
+    """
+
+    settings: dict
+    t: np.ndarray
+    runs: list
+    truth_names: tuple
+    wall_s: float = 0.0
+    resumed: int = 0
+    crlb: object = None
+
+    @property
+    def cases(self) -> tuple[str, ...]:
+        """Case names."""
+        return tuple(self.settings["cases"])
+
+    def summary(self) -> dict:
+        """``{"cases": {name: {...}}, "runs": N, "wall_s": ...}`` (see :func:`summarize`)."""
+        return summarize(self)
+
+    def to_xarray(self):
+        """Every run as an :class:`xarray.Dataset` (run x case x time), the truth parameters per run."""
+        import xarray as xr
+
+        cases = list(self.cases)
+        n_r, n_c, n_t = len(self.runs), len(cases), self.t.size
+
+        def stack(key, shape=()):
+            out = np.full((n_r, n_c, *shape, n_t), np.nan)
+            for i, run in enumerate(self.runs):
+                for j, c in enumerate(cases):
+                    out[i, j] = run["cases"][c][key]
+            return out
+
+        truth = np.array([run["truth"] for run in self.runs])
+        diverged = np.array([[run["cases"][c]["diverged_at"] for c in cases] for run in self.runs])
+        s = self.summary()
+        return xr.Dataset(
+            {
+                "mass_error": (("run", "case", "time"), stack("mass_error"),
+                               {"units": "kg", "long_name": "mass estimate minus the run's true target mass"}),
+                "mass_sigma": (("run", "case", "time"), stack("mass_sigma"),
+                               {"units": "kg", "long_name": "the filter's 1-sigma of the mass"}),
+                "attitude_error": (("run", "case", "axis", "time"), stack("attitude_error", (3,)),
+                                   {"units": "rad", "long_name": "box_minus(q_true, q_est), body frame"}),
+                "attitude_sigma": (("run", "case", "axis", "time"), stack("attitude_sigma", (3,)),
+                                   {"units": "rad", "long_name": "the filter's attitude 1-sigma"}),
+                "attitude_nees": (("run", "case", "time"), stack("attitude_nees"),
+                                  {"units": "1", "long_name": "attitude NEES (3 degrees of freedom)"}),
+                "diverged_at": (("run", "case"), diverged,
+                                {"units": "s", "long_name": "time of divergence (NaN: none)"}),
+                "truth": (("run", "truth_parameter"), truth,
+                          {"long_name": "the run's true parameters (units: kg, m, kg m2, factors, rad/s, m/s2 by name)"}),
+            },
+            coords={
+                "run": ("run", np.array([run["run"] for run in self.runs])),
+                "case": ("case", cases),
+                "time": ("time", self.t, {"units": "s"}),
+                "axis": ("axis", ["x", "y", "z"]),
+                "truth_parameter": ("truth_parameter", list(self.truth_names)),
+            },
+            attrs={
+                "title": "postcapture Monte Carlo campaign",
+                "settings_json": json.dumps(self.settings),
+                "summary_json": json.dumps(s, default=float),
+            },
+        )
+
+
+def _final(values: np.ndarray) -> float:
+    """The last finite value of a history (NaN if none)."""
+    ok = np.nonzero(np.isfinite(values))[0]
+    return float(values[ok[-1]]) if ok.size else float("nan")
+
+
+def summarize(result: CampaignResult) -> dict:
+    """Per case: final mass error mean, std and RMS over the runs, the share of runs inside their own 3 sigma,
+    the time-averaged NEES (mass and attitude) against the chi-square 95 % band for that many runs,
+    diverged runs and the Cramer-Rao bound."""
+    n = len(result.runs)
+    lo1, hi1 = chi2_bounds(1, n) if n else (float("nan"),) * 2
+    lo3, hi3 = chi2_bounds(3, n) if n else (float("nan"),) * 2
+    crlb = result.crlb.all_sensors if result.crlb is not None else None
+    out = {"cases": {}, "runs": n, "dispersed": result.settings.get("dispersed", False),
+           "profile": result.settings.get("profile"), "scenario": result.settings.get("scenario"),
+           "wall_s": result.wall_s, "resumed_runs": result.resumed}
+    for case in result.cases:
+        rows = [run["cases"][case] for run in result.runs]
+        err = np.array([_final(c["mass_error"]) for c in rows])
+        sig = np.array([_final(c["mass_sigma"]) for c in rows])
+        failed = np.array([np.isfinite(c["diverged_at"]) for c in rows], dtype=bool)
+        diverged = int(failed.sum())
+        ok = np.isfinite(err) & np.isfinite(sig) & ~failed  # a diverged run counts as a miss, whatever its last value
+        with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # instants where every run has diverged
+            mass_nees = np.array([(c["mass_error"] / c["mass_sigma"]) ** 2 for c in rows])
+            att_nees = np.array([c["attitude_nees"] for c in rows])
+            avg_m = np.nanmean(mass_nees[:, 1:], axis=0) if n else np.array([np.nan])
+            avg_a = np.nanmean(att_nees[:, 1:], axis=0) if n else np.array([np.nan])
+        out["cases"][case] = {
+            "mass_error_mean_kg": float(np.mean(err[ok])) if ok.any() else None,
+            "mass_error_std_kg": float(np.std(err[ok], ddof=1)) if ok.sum() > 1 else None,
+            "mass_error_rms_kg": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else None,
+            "mass_sigma_mean_kg": float(np.mean(sig[ok])) if ok.any() else None,
+            "inside_3sigma_fraction": float(np.mean(ok & (np.abs(err) <= 3.0 * sig))) if n else None,
+            "final_errors_kg": [float(x) for x in err],
+            "nees_mean": float(np.nanmean(avg_m)) if np.isfinite(avg_m).any() else None,
+            "nees_band": [float(lo1), float(hi1)],
+            "nees_inside_band_fraction": float(np.mean((avg_m >= lo1) & (avg_m <= hi1))),
+            "attitude_nees_mean": float(np.nanmean(avg_a)) if np.isfinite(avg_a).any() else None,
+            "attitude_nees_band": [float(lo3), float(hi3)],
+            "diverged_runs": diverged,
+            "crlb_kg": crlb,
+        }
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- the campaign
+def _settings(plan: RunPlan, runs: int, dispersed: bool) -> dict:
+    """What identifies a campaign (its manifest): a campaign resumes only into the same settings."""
+    return {
+        "scenario": plan.scenario.name,
+        "scenario_json": plan.scenario.model_dump_json(),
+        "truth": plan.truth.source if not dispersed else "drawn per run",
+        "truth_json": plan.truth.scenario.model_dump_json() if not dispersed else None,
+        "truth_parameters": plan.truth.parameters if not dispersed else None,
+        "runs": int(runs),
+        "dispersed": bool(dispersed),
+        "profile": plan.profile_name,
+        "cases": list(plan.cases),
+        "duration_s": plan.duration,
+        "initial_mass_kg": plan.initial_mass,
+        "seed": plan.seed,
+    }
+
+
+def _prepare_out(out: Path, settings: dict, fresh: bool) -> dict[int, Path]:
+    """Check or write the manifest; return the runs already saved."""
+    manifest = out / _MANIFEST
+    runs_dir = out / _RUNS
+    if manifest.exists() and not fresh:
+        try:
+            saved = json.loads(manifest.read_text())
+        except (OSError, ValueError) as exc:
+            raise ScenarioError([Problem("--out", "a campaign folder with a readable campaign.json", str(exc))]) from None
+        if saved != settings:
+            diff = sorted(k for k in set(saved) | set(settings) if saved.get(k) != settings.get(k))
+            raise ScenarioError([Problem("--out", f"a new folder, or this campaign's own (its settings differ in "
+                                                  f"{', '.join(diff)}); use another --out or --fresh", str(out))])
+        return {int(p.stem[4:]): p for p in sorted(runs_dir.glob("run_*.npz"))}
+    if fresh and runs_dir.exists():
+        for p in runs_dir.glob("run_*.npz"):
+            p.unlink()
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    write_atomic(manifest, lambda tmp: Path(tmp).write_text(json.dumps(settings, indent=1)))
+    return {}
+
+
+@contextlib.contextmanager
+def _dask_client(scheduler: str | None, workers: int):
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:
+        raise MissingExtraError("dask[distributed]", "campaign") from exc
+    # Dask logs every start and stop of its workers and servers at INFO: keep a campaign's output to itself.
+    quiet = logging.getLogger("distributed")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    cluster = None
+    try:
+        if scheduler is None:
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address=None, silence_logs=logging.ERROR)
+            client = Client(cluster)
+        else:
+            try:
+                client = Client(scheduler, timeout="5s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise ScenarioError([Problem("--scheduler", "the address of a running Dask scheduler (tcp://HOST:PORT)",
+                                             f"{scheduler!r}: {exc}")]) from None
+        try:
+            yield client
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    finally:
+        quiet.setLevel(level)
+
+
+def run_campaign(
     scenario: Scenario,
     *,
+    runs: int,
+    dispersed: bool = False,
+    truth: TruthModel | None = None,
     profile: str = "realistic",
-    cases=("ekf_flexible", "mekf_flexible"),
-    seeds=range(50),
+    cases=("ekf_flexible", "joint_flexible"),
     duration: float | None = None,
+    initial_mass_error: float | None = None,
     scheduler: str | None = None,
-    n_workers: int = 2,
-    progress: Callable[[float], None] | None = None,
-) -> MonteCarloResult:
-    """Run ``cases`` for every seed of sensor noise on one truth, on Dask.
+    workers: int = 2,
+    out: str | Path | None = None,
+    fresh: bool = False,
+    crlb: bool = True,
+    progress: Callable[[str, int, int], None] | None = None,
+) -> CampaignResult:
+    """Run a Monte Carlo campaign (see the module docstring).
 
     Parameters
     ----------
     scenario : Scenario
-    profile : {"reference", "realistic"}
-    cases : sequence of str
-    seeds : iterable of int
-    duration : float, optional
+        The nominal scenario (the filters' model, the priors, the seed).
+    runs : int
+        Number of runs.
+    dispersed : bool
+        Draw each run's truth from the scenario's ``[uncertainty]`` priors.
+    truth : TruthModel, optional
+        The one truth of a campaign that is not dispersed (the nominal scenario by default).
+    profile, cases, duration, initial_mass_error
+        As for :func:`postcapture.campaign.main_job.run_main_job`.
     scheduler : str, optional
-        Address of a running Dask scheduler; a local cluster of ``n_workers`` processes otherwise.
-    n_workers : int
-    progress : callable(fraction), optional
+        Address of a running Dask scheduler (``tcp://host:port``); a local cluster otherwise.
+    workers : int
+        Worker processes of the local cluster; 0 runs everything in this process, without Dask.
+    out : path, optional
+        Folder for the saved runs (resumable); nothing is saved without it.
+    fresh : bool
+        Discard runs saved in ``out`` by an earlier campaign instead of resuming.
+    crlb : bool
+        Also compute the mass Cramer-Rao bound on the nominal model.
+    progress : callable(message, done, total), optional
+
+    Raises
+    ------
+    ScenarioError
+        For any bad setting, an unreachable scheduler or an ``out`` holding another campaign, before
+        anything is simulated.
     """
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError as exc:
-        raise MissingExtraError("dask[distributed]", "campaign") from exc
-    bad = [c for c in cases if c not in CASES]
-    if bad:
-        raise ScenarioError([Problem("cases", f"names among {', '.join(CASES)}", ", ".join(bad))])
     wall0 = time.perf_counter()
-    seeds = [int(s) for s in seeds]
-    truth = simulate(scenario, duration=duration)
-    prof = resolve_profile(scenario, profile)
-    m_true = float(scenario.target.mass)
-    base = {"scenario": scenario.model_dump(), "t_grid": truth.t, "profile": prof, "profile_name": profile,
-            "theta0": m_true + scenario.estimation.initial_mass_error, "q_true0": truth["q_BN"][:, 0],
-            "P0": attitude_P0(prof, profile), "m_true": m_true}
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
-    else:
-        client = Client(scheduler)
-    try:
-        truth_ref = client.scatter({"traj": truth}, broadcast=True)
-        futures = [client.submit(_seed_task, truth_ref, base, s, tuple(cases), pure=False) for s in seeds]
-        index = {f.key: i for i, f in enumerate(futures)}
-        results: list = [None] * len(seeds)
-        for done, fut in enumerate(as_completed(futures), start=1):
-            results[index[fut.key]] = fut.result()
-            if progress is not None:
-                progress(done / len(futures))
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    nees = {c: np.array([r[c][0] for r in results]) for c in cases}
-    merr = {c: np.array([r[c][1] for r in results]) for c in cases}
-    msig = {c: np.array([r[c][2] for r in results]) for c in cases}
-    return MonteCarloResult(seeds, truth.t, nees, merr, msig, time.perf_counter() - wall0)
+    problems = []
+    if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
+        problems.append(Problem("runs", "a whole number >= 1", repr(runs)))
+    if not isinstance(workers, int) or workers < 0:
+        problems.append(Problem("workers", "a whole number >= 0", repr(workers)))
+    if dispersed and truth is not None:
+        problems.append(Problem("truth", "no fixed truth in a dispersed campaign (each run draws its own)", truth.source))
+    if problems:
+        raise ScenarioError(problems)
+    plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
+                    initial_mass_error=initial_mass_error)
+    if dispersed:
+        check_priors(scenario)
+        draw_truth(scenario, (plan.seed, 0))  # a prior that cannot give a physical truth fails here, not in a worker
+    settings = _settings(plan, runs, dispersed)
+
+    def tell(msg, done, total):
+        if progress is not None:
+            progress(msg, done, total)
+
+    saved: dict[int, Path] = {}
+    out_path = Path(out) if out is not None else None
+    if out_path is not None:
+        saved = _prepare_out(out_path, settings, fresh)
+    results: dict[int, dict] = {r: _load_run(p) for r, p in saved.items() if r < runs}
+    if results:
+        logger.info("resuming: %d of %d runs already saved in %s", len(results), runs, out_path)
+        tell(f"resuming: {len(results)} of {runs} runs already saved", len(results), runs)
+    todo = [r for r in range(runs) if r not in results]
+    payload = {"plan": plan, "dispersed": dispersed}
+
+    def done_one(res):
+        results[res["run"]] = res
+        if out_path is not None:
+            _save_run(out_path / _RUNS, res)
+        tell("runs", len(results), runs)
+
+    crlb_value = None
+    if todo or crlb:
+        if workers == 0 and scheduler is None:
+            shared = None if dispersed else simulate_truth(plan)
+            for r in todo:
+                done_one(run_one(plan, r, dispersed, shared))
+            if crlb:
+                crlb_value = _crlb(plan)
+        else:
+            with _dask_client(scheduler, workers) as client:
+                from dask.distributed import as_completed
+
+                shared = None if dispersed else client.submit(simulate_truth, plan, pure=False)
+                futures = [client.submit(_task, payload, r, shared, pure=False) for r in todo]
+                crlb_future = client.submit(_crlb, plan, pure=False) if crlb else None
+                for fut in as_completed(futures):
+                    done_one(fut.result())
+                    fut.release()
+                if crlb_future is not None:
+                    crlb_value = crlb_future.result()
+    t = plan.t_grid
+    ordered = [results[r] for r in sorted(results)]
+    return CampaignResult(settings, t, ordered, truth_vector_names(scenario), time.perf_counter() - wall0,
+                          resumed=len(saved), crlb=crlb_value)
+
+
+def _crlb(plan: RunPlan):
+    """The mass Cramer-Rao bound on the plan's (nominal) truth model and noise."""
+    from postcapture.campaign.main_job import _run_crlb
+
+    return _run_crlb({"plan": plan})[1]

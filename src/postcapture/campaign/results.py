@@ -15,10 +15,12 @@ import numpy as np
 from postcapture.core import rotations as rot
 from postcapture.io import ResultSet
 
-__all__ = ["RUN_FILES", "to_dataset", "write_results"]
+__all__ = ["RUN_FILES", "CAMPAIGN_FILES", "to_dataset", "write_results", "write_campaign"]
 
 RUN_FILES = ("results.nc", "summary.json", "table.txt", "fig*.png")
 """Names a results folder of the main job holds (other entries of the folder are kept as they are)."""
+CAMPAIGN_FILES = ("campaign.nc", "summary.json", "table.txt", "campaign_*.png")
+"""Names a results folder of a campaign holds."""
 
 
 def to_dataset(result):
@@ -64,7 +66,10 @@ def to_dataset(result):
             "scenario": result.scenario,
             "profile": result.profile,
             "true_mass_kg": result.true_mass,
+            "nominal_mass_kg": result.nominal_mass,
             "initial_mass_kg": result.initial_mass,
+            "truth_source": result.truth_info.get("source", "nominal"),
+            "truth_json": json.dumps(result.truth_info, default=float),
             "seed": result.seed,
             "summary_json": json.dumps(result.summary(), default=float),
         },
@@ -119,4 +124,24 @@ def write_results(result, out_dir, figures: bool = True) -> dict:
                 t, ds["attitude_error"].values[i], ds["attitude_sigma"].values[i], name)
         for stem, fig in figs.items():
             paths[stem] = rs.write(f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
+    return paths
+
+
+def write_campaign(result, out_dir, figures: bool = True) -> dict:
+    """Write a campaign's ``campaign.nc``, ``summary.json``, ``table.txt`` and figures into ``out_dir``, as one
+    set (see :func:`write_results`)."""
+    from postcapture.report.campaign import campaign_figures, campaign_table
+
+    summary = result.summary()
+    with ResultSet(out_dir, owned=CAMPAIGN_FILES, kind="postcapture campaign") as rs:
+        paths = {
+            "summary": rs.write("summary.json",
+                                lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2, default=float))),
+            "table": rs.write("table.txt", lambda tmp: Path(tmp).write_text(campaign_table(summary) + "\n")),
+        }
+        ds = result.to_xarray()
+        paths["results"] = rs.write("campaign.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
+        if figures:
+            for stem, fig in campaign_figures(ds, summary).items():
+                paths[stem] = rs.write(f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
     return paths

@@ -10,6 +10,7 @@ from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
 from postcapture.estimation.dual import SensorSuite
 from postcapture.sensors.accelerometer import measure_accelerometer
+from postcapture.sensors.faults import apply_faults
 from postcapture.sensors.gyroscope import measure_gyro
 from postcapture.sensors.joints import measure_joint_accelerations
 from postcapture.sensors.profiles import SensorProfile, get_profile
@@ -46,12 +47,19 @@ def interval_mean_rate(t: np.ndarray, q_BN: np.ndarray) -> np.ndarray:
     return w
 
 
-def measure_all(traj, profile: SensorProfile, rng: np.random.Generator) -> SensorSuite:
-    """Every sensor of the profile sampled from a truth trajectory, with an explicit generator."""
+def measure_all(traj, profile: SensorProfile, rng: np.random.Generator, faults=()) -> SensorSuite:
+    """Every sensor of the profile sampled from a truth trajectory, with an explicit generator.
+
+    ``faults`` (see :mod:`postcapture.config.faults`) are applied after the noise is drawn: the same seed
+    gives the same noise with or without them.
+    """
     t = traj.t
-    return SensorSuite(
-        star=measure_star_tracker(profile.star_tracker, t, traj["q_BN"], rng=rng),
-        gyro=measure_gyro(profile.gyro, t, interval_mean_rate(t, traj["q_BN"]), rng=rng),
-        accel=measure_accelerometer(profile.accelerometer, t, traj["accel_B"], rng=rng),
-        joints=measure_joint_accelerations(profile.joints, t, traj["arm_ddq"], rng=rng),
-    )
+    records = {
+        "star_tracker": measure_star_tracker(profile.star_tracker, t, traj["q_BN"], rng=rng),
+        "gyro": measure_gyro(profile.gyro, t, interval_mean_rate(t, traj["q_BN"]), rng=rng),
+        "accelerometer": measure_accelerometer(profile.accelerometer, t, traj["accel_B"], rng=rng),
+        "joints": measure_joint_accelerations(profile.joints, t, traj["arm_ddq"], rng=rng),
+    }
+    records = apply_faults(records, faults)
+    return SensorSuite(star=records["star_tracker"], gyro=records["gyro"], accel=records["accelerometer"],
+                       joints=records["joints"])

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import json
 import sys
+import textwrap
 
 from postcapture.core.errors import Problem, ScenarioError
 
 __all__ = [
     "cmd_simulate",
     "cmd_run",
+    "cmd_campaign",
     "cmd_fmu_export",
     "cmd_fmu_info",
     "cmd_modes",
@@ -90,6 +92,7 @@ def cmd_run(args) -> int:
     from postcapture.report.estimation import results_table
 
     scenario = load_scenario(args.scenario)
+    truth = _truth(args, scenario)
     plant = args.plant
     cases = args.cases
     if plant != "native":
@@ -101,6 +104,7 @@ def cmd_run(args) -> int:
     with bar:
         result = run_main_job(
             scenario,
+            truth=truth,
             profile=args.profile,
             duration=args.duration,
             cases=cases or ("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff", "joint_flexible"),
@@ -119,6 +123,62 @@ def cmd_run(args) -> int:
     else:
         print(results_table(summary))
         print(f"results written to {args.out}/ ({', '.join(sorted(p.name for p in paths.values()))})")
+    return 0
+
+
+def _truth(args, scenario):
+    """The truth a command asked for (``--truth-scenario`` or ``--truth-draw``), or None for the nominal one."""
+    from postcapture.config import load_scenario
+    from postcapture.dynamics.truth import check_priors, draw_truth, truth_from_scenario
+
+    if getattr(args, "truth_scenario", None):
+        return truth_from_scenario(scenario, load_scenario(args.truth_scenario), args.truth_scenario)
+    if getattr(args, "truth_draw", None) is not None:
+        check_priors(scenario)
+        return draw_truth(scenario, args.truth_draw)
+    return None
+
+
+def cmd_campaign(args) -> int:
+    from postcapture.campaign.montecarlo import run_campaign
+    from postcapture.campaign.results import write_campaign
+    from postcapture.config import load_scenario
+    from postcapture.report.campaign import campaign_table
+
+    scenario = load_scenario(args.scenario)
+    if args.dispersed and args.truth_scenario:
+        raise ScenarioError([Problem("--truth-scenario", "no fixed truth with --dispersed (each run draws its own)",
+                                     args.truth_scenario)])
+    truth = _truth(args, scenario)
+    bar = None
+
+    def progress(message, done, total):
+        nonlocal bar
+        if message.startswith("resuming"):
+            print(f"postcapture: {message} in {args.out}", file=sys.stderr)
+        if bar is None:
+            from tqdm import tqdm
+
+            bar = tqdm(total=total, desc="campaign", unit="run", disable=None, file=sys.stderr, leave=False)
+        bar.update(done - bar.n)
+
+    try:
+        result = run_campaign(scenario, runs=args.runs, dispersed=args.dispersed, truth=truth, profile=args.profile,
+                              cases=args.cases, duration=args.duration, initial_mass_error=args.initial_mass_error,
+                              scheduler=args.scheduler, workers=args.workers, out=args.out, fresh=args.fresh,
+                              crlb=not args.no_crlb, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    paths = write_campaign(result, args.out, figures=not args.no_plots)
+    summary = result.summary()
+    if args.json:
+        _print_json(summary)
+    else:
+        print(campaign_table(summary))
+        print(f"results written to {args.out}/:")
+        print(textwrap.fill(", ".join(sorted(p.name for p in paths.values())), 80, initial_indent="  ",
+                            subsequent_indent="  "))
     return 0
 
 

@@ -23,6 +23,8 @@ EXAMPLES = """examples:
   postcapture panel calibrate --panel envisat --weights 1,10,0.1 --out results/panel
   postcapture fmu export -o envisat.fmu && postcapture fmu info envisat.fmu
   postcapture run --plant fmu:envisat.fmu
+  postcapture run --truth-draw 7 --profile realistic     # the truth drawn from the scenario's priors
+  postcapture campaign --runs 50 --dispersed --out results/campaign
   postcapture bench --json
 """
 
@@ -73,6 +75,26 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _nonnegative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, found {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, found {text!r}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a seed, an integer in [0, 2**63), found {text!r}") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"expected a seed, an integer in [0, 2**63), found {text!r}")
+    return value
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit status 1 (argparse's default is 2)
         self.print_usage(sys.stderr)
@@ -113,12 +135,41 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--initial-mass-error", type=float, default=None, metavar="KG",
                    help="added to the true mass to start the filters (default: scenario, -100 kg)")
     p.add_argument("--seed", type=int, default=None, help="sensor-noise seed (default: scenario)")
+    truth = p.add_mutually_exclusive_group()
+    truth.add_argument("--truth-scenario", default=None, metavar="PATH",
+                       help="simulate the truth from this scenario (same arm and panels); the filters keep --scenario")
+    truth.add_argument("--truth-draw", type=_seed, default=None, metavar="SEED",
+                       help="simulate a truth drawn from the scenario's [uncertainty] priors")
     p.add_argument("--workers", type=_positive_int, default=2, help="processes for the cases (default 2)")
     p.add_argument("--no-crlb", action="store_true", help="skip the Cramer-Rao bound")
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--out", default="results", metavar="DIR", help="results folder (default: results)")
     p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
     p.set_defaults(func=commands.cmd_run)
+
+    p = sub.add_parser("campaign", help="Monte Carlo over noise seeds and drawn truths, on Dask")
+    p.add_argument("--scenario", default="envisat", help="built-in name or TOML path (default: envisat)")
+    p.add_argument("--runs", type=_positive_int, required=True, metavar="N", help="number of runs")
+    p.add_argument("--dispersed", action="store_true", help="draw each run's truth from the scenario's [uncertainty]")
+    p.add_argument("--truth-scenario", default=None, metavar="PATH",
+                   help="one truth for every run from this scenario (not with --dispersed)")
+    p.add_argument("--profile", choices=["reference", "realistic"], default="realistic",
+                   help="sensor profile and tuning (default: realistic)")
+    p.add_argument("--cases", type=_cases, default=("ekf_flexible", "joint_flexible"), metavar="A,B,...",
+                   help="cases to run (default: ekf_flexible,joint_flexible)")
+    p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="seconds (default: scenario)")
+    p.add_argument("--initial-mass-error", type=float, default=None, metavar="KG",
+                   help="added to the nominal mass to start the filters (default: scenario)")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="a running Dask scheduler (default: a local cluster)")
+    p.add_argument("--workers", type=_nonnegative_int, default=2, metavar="K",
+                   help="worker processes of the local cluster; 0 runs in this process (default 2)")
+    p.add_argument("--out", required=True, metavar="DIR", help="results folder; a campaign started again resumes there")
+    p.add_argument("--fresh", action="store_true", help="discard runs saved in DIR instead of resuming")
+    p.add_argument("--no-crlb", action="store_true", help="skip the Cramer-Rao bound")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--json", action="store_true", help="print the JSON summary on stdout")
+    p.set_defaults(func=commands.cmd_campaign)
 
     p = sub.add_parser("simulate", help="truth simulation to a NetCDF file")
     scenario_args(p)

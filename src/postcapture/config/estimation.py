@@ -1,16 +1,20 @@
-"""The scenario's estimation settings: initial mass error, filter step, seed and sensor-profile overrides.
+"""The scenario's estimation settings: initial mass error, filter step, seed, sensor-profile overrides, tunings.
 
 Sensor profiles are built in (:mod:`postcapture.sensors.profiles`: ``reference`` and ``realistic``); a
-scenario may override any of their numbers under ``[sensors.<profile>.<sensor>]``.
+scenario may override any of their numbers under ``[estimation.sensors.<profile>.<sensor>]``, and any
+filter tuning under ``[estimation.tuning.<profile>]``. A tuning left out is derived from the profile's
+sensors, the target's nominal mass and the declared ``[uncertainty]`` (see
+:func:`postcapture.campaign.tuning.resolve_tuning`, which documents every default).
 """
 
 from __future__ import annotations
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
-from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, Vec3
+from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, Vec3, problem
 
-__all__ = ["StarTrackerSpec", "GyroSpec", "AccelerometerSpec", "JointSensorSpec", "SensorProfileSpec", "Estimation"]
+__all__ = ["StarTrackerSpec", "GyroSpec", "AccelerometerSpec", "JointSensorSpec", "SensorProfileSpec", "FilterTuning",
+           "Estimation"]
 
 
 class StarTrackerSpec(Frozen):
@@ -60,13 +64,62 @@ class SensorProfileSpec(Frozen):
     joints: JointSensorSpec = JointSensorSpec()
 
 
+class FilterTuning(Frozen):
+    """Tunings of the filters under one sensor profile; None means derived (SI units throughout).
+
+    Parameters
+    ----------
+    star_tracker_sigma : float
+        Star-tracker 1-sigma the attitude filters assume (rad).
+    attitude_process_sigma : float
+        Attitude EKF process noise per filter step (rad).
+    attitude_initial_sigma : float
+        Initial attitude 1-sigma of every filter (rad); the initial attitude errors are drawn from it.
+    gyro_bias_initial_sigma, accelerometer_bias_initial_sigma : float
+        Initial bias 1-sigma per axis (rad/s, m/s^2).
+    mass_accel_sigma, mass_joint_sigma : float
+        The sigmoid mass filter's measurement 1-sigma (m/s^2, rad/s^2).
+    mass_process_variance : (float, float)
+        Its process noise on the sigmoid pre-image per step, at the start and at the end of the run.
+    mass_bounds : (float, float)
+        Its sigmoid bounds (kg), around the nominal target mass and the initial estimate.
+    sigmoid_c : float
+        Its sigmoid steepness (1/kg of pre-image).
+    gate_probability : float
+        Chi-square gate of every filter's innovations, in (0, 1).
+    model_process_variance : float
+        The joint EKF's process noise per step on every plant velocity coordinate.
+    """
+
+    star_tracker_sigma: PositiveFloat | None = None
+    attitude_process_sigma: NonNegativeFloat | None = None
+    attitude_initial_sigma: PositiveFloat | None = None
+    gyro_bias_initial_sigma: PositiveFloat | None = None
+    accelerometer_bias_initial_sigma: PositiveFloat | None = None
+    mass_accel_sigma: PositiveFloat | None = None
+    mass_joint_sigma: PositiveFloat | None = None
+    mass_process_variance: tuple[NonNegativeFloat, NonNegativeFloat] | None = None
+    mass_bounds: tuple[PositiveFloat, PositiveFloat] | None = None
+    sigmoid_c: PositiveFloat | None = None
+    gate_probability: float | None = Field(default=None, gt=0.0, lt=1.0)
+    model_process_variance: NonNegativeFloat | None = None
+
+    @model_validator(mode="after")
+    def _bounds(self):
+        if self.mass_bounds is not None and not self.mass_bounds[1] > self.mass_bounds[0]:
+            raise problem("mass_bounds as [lower, upper] with upper > lower (kg)", list(self.mass_bounds))
+        return self
+
+
 class Estimation(Frozen):
     """Settings of the main job's estimators.
 
-    ``initial_mass_error`` (kg) is added to the true target mass to start every mass estimate.
+    ``initial_mass_error`` (kg) is added to the nominal target mass to start every mass estimate (the
+    filters' model is the nominal one, whatever the truth).
     """
 
     initial_mass_error: float = -100.0
     filter_step: PositiveFloat = 0.1
     seed: int = Field(default=0, ge=0)
     sensors: dict[str, SensorProfileSpec] = Field(default_factory=dict)
+    tuning: dict[str, FilterTuning] = Field(default_factory=dict)

@@ -13,6 +13,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from postcapture.config.faults import FAULT_KINDS
 from postcapture.config.schema import Scenario
 from postcapture.core.errors import Problem, ScenarioError
 
@@ -28,17 +29,22 @@ def builtin_scenarios() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
+_UNION_TAGS = ("step", "sine", "chirp", "table", *FAULT_KINDS)
+
+
 def _loc(loc: tuple) -> str:
     out = ""
+    previous = None
     for part in loc:
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("step", "sine", "chirp", "table", "function-after[_check_inertia(), tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]]"):
-            continue  # discriminator / validator tags pydantic inserts into paths
+        elif isinstance(previous, int) and part in _UNION_TAGS:
+            pass  # the discriminator tag pydantic inserts after a list index (a field may share its name)
         elif isinstance(part, str) and ("[" in part or "(" in part):
-            continue
+            pass  # validator tags
         else:
             out += ("." if out else "") + str(part)
+        previous = part
     return out or "(scenario)"
 
 
@@ -76,7 +82,8 @@ def _expected(err: dict) -> str:
     if kind == "union_tag_invalid":
         return "kind one of " + str(ctx.get("expected_tags", ""))
     if kind == "union_tag_not_found":
-        return "a 'kind' key (step, sine, chirp or table)"
+        kinds = FAULT_KINDS if err["loc"][:1] == ("faults",) else ("step", "sine", "chirp", "table")
+        return f"a 'kind' key ({', '.join(kinds)})"
     return err["msg"]
 
 
@@ -99,7 +106,8 @@ def _found(err: dict) -> str:
 
 def problems_from_validation(exc: ValidationError) -> list[Problem]:
     """Turn a pydantic ``ValidationError`` into a list of :class:`Problem` (path, expected, found)."""
-    return [Problem(_loc(tuple(e["loc"])), _expected(e), _found(e)) for e in exc.errors()]
+    return [Problem((e.get("ctx") or {}).get("path") or _loc(tuple(e["loc"])), _expected(e), _found(e))
+            for e in exc.errors()]
 
 
 def scenario_from_dict(data: dict[str, Any], source: str | None = None) -> Scenario:

@@ -14,6 +14,8 @@ from pydantic import Field, field_validator, model_validator
 
 from postcapture.config.estimation import Estimation
 from postcapture.config.excitation import Excitation, channel_index
+from postcapture.config.faults import Fault, JointFault, fault_window
+from postcapture.config.uncertainty import Uncertainty
 from postcapture.config.flexibility import refine_stiffness
 from postcapture.config.types import (
     AxisName,
@@ -29,6 +31,7 @@ from postcapture.config.types import (
 from typing import Annotated
 
 __all__ = [
+    "fault_problems",
     "Panel",
     "Chaser",
     "Target",
@@ -191,6 +194,19 @@ class Simulation(Frozen):
         return self
 
 
+def fault_problems(faults, duration: float) -> list[tuple[str, str, str]]:
+    """``(path, expected, found)`` of every fault whose window does not lie inside a run of ``duration`` s."""
+    out = []
+    for i, fault in enumerate(faults):
+        start, stop = fault_window(fault)
+        if start >= duration:
+            out.append((f"faults[{i}]", f"a fault starting inside the run (before {duration:g} s)", f"{start:g} s"))
+        elif stop is not None and stop > duration:
+            out.append((f"faults[{i}].stop", f"a fault window ending inside the run (at most {duration:g} s)",
+                        f"{stop:g} s"))
+    return out
+
+
 class Scenario(Frozen):
     """A complete post-capture scenario."""
 
@@ -203,15 +219,31 @@ class Scenario(Frozen):
     initial: InitialState = InitialState()
     simulation: Simulation = Simulation()
     estimation: Estimation = Estimation()
+    uncertainty: Uncertainty = Uncertainty()
+    faults: tuple[Fault, ...] = ()
 
     @model_validator(mode="after")
     def _consistency(self):
         if self.target is not None and self.arm is None:
             raise problem("an arm to hold the target", "a target without an arm")
         n_arm = len(self.arm.joints) if self.arm is not None else 0
-        unknown = sorted(set(self.estimation.sensors) - {"reference", "realistic"})
-        if unknown:
-            raise problem("sensor profiles among reference, realistic", unknown)
+        for section in ("sensors", "tuning"):
+            unknown = sorted(set(getattr(self.estimation, section)) - {"reference", "realistic"})
+            if unknown:
+                raise problem("profiles among reference, realistic", unknown, f"estimation.{section}")
+        for i, fault in enumerate(self.faults):
+            if isinstance(fault, JointFault) and fault.joint > n_arm:
+                raise problem(f"a joint among the arm's joints 1..{n_arm}", fault.joint, f"faults[{i}].joint")
+        problems = fault_problems(self.faults, self.simulation.duration)
+        if problems:
+            raise problem(problems[0][1], problems[0][2], problems[0][0])
+        unc = self.uncertainty
+        if unc.target_mass is not None and self.target is not None:
+            lowest = self.target.mass + unc.target_mass.extremes()[0]
+            panels = sum(p.mass for p in self.target.panels)
+            if lowest <= panels:
+                raise problem(f"draws that keep the target heavier than its panels ({panels:g} kg)",
+                              f"draws down to {lowest:g} kg", "uncertainty.target_mass")
         for i, ex in enumerate(self.excitation):
             try:
                 channel_index(ex.channel, n_arm)

@@ -32,11 +32,16 @@ __all__ = [
 ]
 
 
-def problem(expected: str, found: object) -> PydanticCustomError:
-    """A validation error whose message reads ``expected ..., found ...``."""
-    return PydanticCustomError(
-        "scenario", "expected {expected}, found {found}", {"expected": expected, "found": str(found)}
-    )
+def problem(expected: str, found: object, path: str | None = None) -> PydanticCustomError:
+    """A validation error whose message reads ``expected ..., found ...``.
+
+    ``path`` names the field when a check on a whole section is about one of its fields (for example
+    ``faults[0].stop``); the loader reports it instead of the section's own path.
+    """
+    ctx = {"expected": expected, "found": str(found)}
+    if path is not None:
+        ctx["path"] = path
+    return PydanticCustomError("scenario", "expected {expected}, found {found}", ctx)
 
 
 _MAX_ARRAY_DEPTH = 8  # deeper arrays than any field has are left as lists: the type check reports them

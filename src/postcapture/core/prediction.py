@@ -31,6 +31,11 @@ class Prediction:
         Measurement Jacobian at the predicted state.
     h : ndarray, shape (m,), optional
         Derivative of the measurement with respect to the target mass at fixed state.
+    G : ndarray, shape (n, n_p), optional
+        Derivative of the predicted state with respect to the model's parameter vector (its
+        ``param_names``).
+    Hp : ndarray, shape (m, n_p), optional
+        Derivative of the measurement with respect to the parameter vector at fixed state.
     """
 
     x: np.ndarray
@@ -39,3 +44,5 @@ class Prediction:
     g: np.ndarray | None = None
     H: np.ndarray | None = None
     h: np.ndarray | None = None
+    G: np.ndarray | None = None
+    Hp: np.ndarray | None = None

@@ -61,6 +61,8 @@ class SpringSet:
     """Linear springs and dampers on the elastic coordinates ``e`` (all coordinates but the root's).
 
     Spring j has deflection ``a_j . e - r_j``, stiffness ``k_j`` and damping ``d_j`` on ``a_j . de/dt``.
+    ``groups[j]`` says which scale of the parameter vector (:mod:`postcapture.dynamics.parameters`)
+    multiplies it: ``(panel index, "bending" | "torsion")``, ``"arm"``, or None (a Spong servo).
     """
 
     rows: list[dict[int, float]] = field(default_factory=list)
@@ -68,14 +70,16 @@ class SpringSet:
     d: list[float] = field(default_factory=list)
     rest: list[float] = field(default_factory=list)
     names: list[str] = field(default_factory=list)
+    groups: list = field(default_factory=list)
 
-    def add(self, name: str, row: dict[int, float], k: float, d: float, rest: float = 0.0) -> None:
+    def add(self, name: str, row: dict[int, float], k: float, d: float, rest: float = 0.0, group=None) -> None:
         """Add one spring-damper."""
         self.names.append(name)
         self.rows.append(row)
         self.k.append(float(k))
         self.d.append(float(d))
         self.rest.append(float(rest))
+        self.groups.append(group)
 
     def matrix(self, n_e: int) -> np.ndarray:
         """The matrix A with rows a_j, shape (n_springs, n_e)."""
@@ -120,6 +124,7 @@ class _Builder:
         self.rest: dict[int, float] = {}  # joint id -> rest angle
         self.body_frame: dict[int, int] = {0: 0}  # joint id -> its body frame (the universe's is 0)
         self.n_root = n_root  # velocity coordinates of the root joint
+        self.n_panels = 0  # panels built so far (their index in the parameter vector)
 
     def k(self, value: float) -> float:
         return STIFF_K if self.stiff else value
@@ -148,13 +153,17 @@ class _Builder:
         self.frame(f"{panel.name}_root", host_joint, mount)
         tor = self.joint(host_joint, pin.JointModelRX(), mount, f"{panel.name}_torsion", None)
         kt = self.k(panel.torsion_stiffness)
-        self.springs.add(f"{panel.name}_torsion", {self.e(tor): 1.0}, kt, panel.damping_beta * panel.torsion_stiffness)
+        index = self.n_panels
+        self.n_panels += 1
+        self.springs.add(f"{panel.name}_torsion", {self.e(tor): 1.0}, kt, panel.damping_beta * panel.torsion_stiffness,
+                         group=(index, "torsion"))
         parent, bend = tor, []
         for i in range(n):
             placement = _se3(np.eye(3), [l if i else 0.0, 0.0, 0.0])
             jid = self.joint(parent, pin.JointModelRY(), placement, f"{panel.name}_bend_{i + 1}", seg)
             k_i = panel.bending_stiffness[i]
-            self.springs.add(f"{panel.name}_bend_{i + 1}", {self.e(jid): 1.0}, self.k(k_i), panel.damping_beta * k_i)
+            self.springs.add(f"{panel.name}_bend_{i + 1}", {self.e(jid): 1.0}, self.k(k_i), panel.damping_beta * k_i,
+                             group=(index, "bending"))
             bend.append(jid)
             parent = jid
         self.frame(f"{panel.name}_tip", parent, _se3(np.eye(3), [l, 0.0, 0.0]))
@@ -190,11 +199,12 @@ class _Builder:
                 jid = self.joint(parent, _AXES[js.axis](), placement, f"arm_{i + 1}", link_I)
                 self.rest[jid] = js.rest_angle
                 if rotor is None:
-                    self.springs.add(f"arm_{i + 1}", {self.e(jid): 1.0}, self.k(js.stiffness), js.damping, js.rest_angle)
+                    self.springs.add(f"arm_{i + 1}", {self.e(jid): 1.0}, self.k(js.stiffness), js.damping, js.rest_angle,
+                                     group="arm")
                 else:
                     self.rest[rotor] = js.rest_angle
                     row = {self.e(jid): 1.0, self.e(rotor): -1.0}
-                    self.springs.add(f"arm_{i + 1}", row, self.k(js.stiffness), js.damping)
+                    self.springs.add(f"arm_{i + 1}", row, self.k(js.stiffness), js.damping, group="arm")
                     ks = js.servo_stiffness if js.servo_stiffness is not None else js.stiffness
                     ds = js.servo_damping if js.servo_damping is not None else js.damping
                     self.springs.add(f"arm_{i + 1}_servo", {self.e(rotor): 1.0}, self.k(ks), ds, js.rest_angle)

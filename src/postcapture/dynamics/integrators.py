@@ -102,13 +102,16 @@ class StepJacobian:
     """A step and its exact Jacobian in tangent coordinates.
 
     ``Fx`` (2nv x 2nv) maps ``(dq_k, dv_k)`` to ``(dq_k+1, dv_k+1)``; ``Fu`` (2nv x n_u) a constant input
-    offset over the step; ``Fm`` (2nv,) the target mass (None without a target).
+    offset over the step; ``Fp`` (2nv x n_p) the system's parameter vector
+    (:mod:`postcapture.dynamics.parameters`), None when not requested; ``Fm`` (2nv,) the total target
+    mass (None without a target).
     """
 
     q: np.ndarray
     v: np.ndarray
     Fx: np.ndarray
     Fu: np.ndarray
+    Fp: np.ndarray | None
     Fm: np.ndarray | None
 
 
@@ -320,14 +323,14 @@ class LieRungeKutta:
         return self._finish(q, xi_end, v_end, Kv, t), v_end, h * total
 
     # ------------------------------------------------------------------ step Jacobian
-    def step_jacobian(self, q, v, t: float, h: float, u_extra=None, wrt_mass: bool = True) -> StepJacobian:
+    def step_jacobian(self, q, v, t: float, h: float, u_extra=None, wrt_params: bool = True) -> StepJacobian:
         """Take one step and return it with its exact Jacobian (see :class:`StepJacobian`)."""
         sysm = self.system
         model = sysm.model
         tab = self.tableau
         nv, nu = sysm.nv, sysm.n_u
-        has_m = wrt_mass and sysm.layout.has_target
-        n_p = 2 * nv + nu + (1 if has_m else 0)
+        n_par = len(sysm.parameter_names) if wrt_params else 0
+        n_p = 2 * nv + nu + n_par
         Z, Kxi, Kv, xi_end, v_end = self._stages(q, v, t, h, u_extra, refresh=False)
         q1 = self._finish(q, xi_end, v_end, Kv, t)
         I2 = np.eye(2 * nv)
@@ -353,8 +356,8 @@ class LieRungeKutta:
             dKdp = np.zeros((2 * nv, n_p))
             dKdp[nv:, :nv] = Aq @ J0
             dKdp[nv:, 2 * nv : 2 * nv + nu] = Minv @ sysm.B
-            if has_m:
-                dKdp[nv:, -1] = sysm.ddq_dmass(qi, V, ddq, Minv)
+            if n_par:
+                dKdp[nv:, 2 * nv + nu :] = sysm.ddq_dparams(qi, V, ddq, Minv)
             g = tab.A[i, i]
             if g == 0.0:
                 dZ = dZbar
@@ -371,12 +374,14 @@ class LieRungeKutta:
         dq1 = Jre @ d_end[:nv]
         dq1[:, :nv] += J0e
         F = np.vstack([dq1, d_end[nv:]])
+        Fp = F[:, 2 * nv + nu :] if n_par else None
         return StepJacobian(
             q=q1,
             v=v_end,
             Fx=F[:, : 2 * nv],
             Fu=F[:, 2 * nv : 2 * nv + nu],
-            Fm=F[:, -1] if has_m else None,
+            Fp=Fp,
+            Fm=Fp @ sysm.dparams_dmass() if (n_par and sysm.layout.has_target) else None,
         )
 
 

@@ -22,8 +22,8 @@ __all__ = ["NativeProcessModel", "measurement_jacobian"]
 def measurement_jacobian(system: System, q, v, t: float, r_acc: np.ndarray, arm_v: np.ndarray):
     """Measurement ``z = [accel_B, arm_ddq]`` at ``(q, v, t)`` and its exact derivatives.
 
-    Returns ``z`` (m,), ``H`` (m, 2nv) with respect to the tangent ``(dq, dv)``, and ``h`` (m,) with
-    respect to the target mass (None without a target).
+    Returns ``z`` (m,), ``H`` (m, 2nv) with respect to the tangent ``(dq, dv)``, and ``Hp`` (m, n_p) with
+    respect to the system's parameter vector.
     """
     nv = system.nv
     u = system.input_vector(t)
@@ -40,11 +40,9 @@ def measurement_jacobian(system: System, q, v, t: float, r_acc: np.ndarray, arm_
     H[:3, nv + 3 : nv + 6] += d_w
     H[3:, :nv] = Aq[arm_v]
     H[3:, nv:] = Av[arm_v]
-    h = None
-    if system.layout.has_target:
-        dm = system.ddq_dmass(q, v, ddq, Minv)
-        h = np.concatenate([J_ddq @ dm[:6], dm[arm_v]])
-    return z, H, h
+    dp = system.ddq_dparams(q, v, ddq, Minv)
+    Hp = np.vstack([J_ddq @ dp[:6], dp[arm_v]])
+    return z, H, Hp
 
 
 class NativeProcessModel:
@@ -89,6 +87,20 @@ class NativeProcessModel:
     def mass(self, value: float) -> None:
         self.system.target_mass = value
 
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """Names of the parameter vector (:mod:`postcapture.dynamics.parameters`)."""
+        return self.system.parameter_names
+
+    @property
+    def params(self) -> np.ndarray:
+        """The model's parameter vector (a copy)."""
+        return self.system.parameters()
+
+    def set_params(self, p) -> None:
+        """Set the model's parameter vector (the filter's estimate of the truth's)."""
+        self.system.set_parameters(p)
+
     def initial_state(self) -> np.ndarray:
         from postcapture.dynamics.build import initial_state
 
@@ -101,38 +113,41 @@ class NativeProcessModel:
 
     def _measure(self, q, v, t, jacobians):
         if jacobians:
-            z, H, h = measurement_jacobian(self.system, q, v, t, self._r_acc, self._arm_v)
+            z, H, Hp = measurement_jacobian(self.system, q, v, t, self._r_acc, self._arm_v)
         else:
             ddq = self.system.acceleration(q, v, t)
             z = np.concatenate([accelerometer_reading(v, ddq, self._r_acc), ddq[self._arm_v]])
-            H = h = None
+            H = Hp = None
         if self._n_arm_locked:  # locked joints measure zero acceleration
             z = np.concatenate([z, np.zeros(self._n_arm_locked)])
             if H is not None:
                 H = np.vstack([H, np.zeros((self._n_arm_locked, self.n))])
-                h = np.concatenate([h, np.zeros(self._n_arm_locked)]) if h is not None else None
-        return z, H, h
+                Hp = np.vstack([Hp, np.zeros((self._n_arm_locked, Hp.shape[1]))])
+        return z, H, Hp
 
     def predict(self, x, t: float, dt: float, jacobians: bool = False):
         k = int(round(dt / self.step))
         if k < 1 or abs(k * self.step - dt) > 1e-9 * max(1.0, dt):
             raise ValueError(f"dt: expected a whole multiple of the model step {self.step}, found {dt}")
         q, v = self.split(np.asarray(x, dtype=float))
-        F = g = None
+        F = G = None
         for j in range(k):
             tj = t + j * self.step
             if jacobians:
                 res = self.integrator.step_jacobian(q, v, tj, self.step)
                 q, v = res.q, res.v
-                gm = res.Fm if res.Fm is not None else np.zeros(self.n)
                 if F is None:
-                    F, g = res.Fx, gm
+                    F, G = res.Fx, res.Fp
                 else:
-                    F, g = res.Fx @ F, res.Fx @ g + gm
+                    F, G = res.Fx @ F, res.Fx @ G + res.Fp
             else:
                 q, v = self.integrator.step(q, v, tj, self.step)
-        z, H, h = self._measure(q, v, t + dt, jacobians)
-        return Prediction(np.concatenate([q, v]), z, F, g, H, h)
+        z, H, Hp = self._measure(q, v, t + dt, jacobians)
+        g = h = None
+        if jacobians:
+            dpdm = self.system.dparams_dmass() if self.system.layout.has_target else np.zeros(G.shape[1])
+            g, h = G @ dpdm, Hp @ dpdm
+        return Prediction(np.concatenate([q, v]), z, F, g, H, h, G, Hp)
 
     def retract(self, x, dx):
         q, v = self.split(np.asarray(x, dtype=float))

@@ -170,11 +170,13 @@ def simulate(
     integrator: str | None = None,
     step: float | None = None,
     sample_period: float | None = None,
+    parameters: dict | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> Trajectory:
     """Simulate a scenario's truth from its initial state.
 
-    Parameters default to the scenario's ``[simulation]`` section.
+    Settings default to the scenario's ``[simulation]`` section; ``parameters`` overrides named model
+    parameters (:mod:`postcapture.dynamics.parameters`, e.g. a truth drawn from the priors).
 
     Examples
     --------
@@ -185,6 +187,7 @@ def simulate(
     """
     sim = scenario.simulation
     system = build_system(scenario, variant, panel_segments=panel_segments, damping=damping, excitation=excitation)
+    system.update_parameters(parameters or {})
     q0, v0 = initial_state(system)
     traj = simulate_system(
         system,

@@ -1,0 +1,66 @@
+"""Scheduled sensor faults (``[[faults]]``): applied to the truth-side sensors; the filters are not told.
+
+Kinds (times in s, steps in SI):
+
+- ``star_tracker_outage``, ``gyro_outage``, ``accelerometer_outage``: no samples on ``[start, stop)``;
+- ``gyro_bias_step`` (rad/s), ``accelerometer_bias_step`` (m/s^2): the bias jumps by ``step`` (3, body
+  axes) at ``time`` and stays;
+- ``joint_stuck``: joint ``joint``'s sensor repeats its last sample before ``start`` on
+  ``[start, stop)``; ``joint_dropout``: it gives no samples there.
+
+``stop`` defaults to the end of the run.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Union
+
+from pydantic import Field, model_validator
+
+from postcapture.config.types import Frozen, NonNegativeFloat, Vec3, problem
+
+__all__ = ["Outage", "BiasStep", "JointFault", "Fault", "FAULT_KINDS", "fault_window"]
+
+
+class _Window(Frozen):
+    start: NonNegativeFloat
+    stop: NonNegativeFloat | None = None
+
+    @model_validator(mode="after")
+    def _order(self):
+        if self.stop is not None and self.stop <= self.start:
+            raise problem(f"stop > start = {self.start}", self.stop)
+        return self
+
+
+class Outage(_Window):
+    """A sensor gives no samples on ``[start, stop)``."""
+
+    kind: Literal["star_tracker_outage", "gyro_outage", "accelerometer_outage"]
+
+
+class BiasStep(Frozen):
+    """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``."""
+
+    kind: Literal["gyro_bias_step", "accelerometer_bias_step"]
+    time: NonNegativeFloat
+    step: Vec3
+
+
+class JointFault(_Window):
+    """Joint ``joint`` (1-based) sensor stuck at its last value, or silent, on ``[start, stop)``."""
+
+    kind: Literal["joint_stuck", "joint_dropout"]
+    joint: int = Field(ge=1)
+
+
+Fault = Annotated[Union[Outage, BiasStep, JointFault], Field(discriminator="kind")]
+FAULT_KINDS = ("star_tracker_outage", "gyro_outage", "accelerometer_outage", "gyro_bias_step",
+               "accelerometer_bias_step", "joint_stuck", "joint_dropout")
+
+
+def fault_window(fault) -> tuple[float, float | None]:
+    """``(start, stop)`` of a fault (a bias step starts at its time and never stops)."""
+    if isinstance(fault, BiasStep):
+        return fault.time, None
+    return fault.start, fault.stop

@@ -1,0 +1,112 @@
+"""Tables and figures of a Monte Carlo campaign (its summary dict and its xarray Dataset in; text and figures out).
+
+- ``campaign_final_errors``: each run's final mass error with the filter's own 3-sigma bar, one panel per
+  case; runs whose error lies outside their 3 sigma are drawn in red.
+- ``campaign_nees``: the NEES averaged over the runs at each instant, mass (1 degree of freedom) and
+  attitude (3), against the two-sided 95 % chi-square band for that many runs.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = ["campaign_table", "campaign_figures"]
+
+
+def _num(value, spec: str, width: int) -> str:
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return "-".rjust(width)
+    return format(value, spec).rjust(width)
+
+
+def campaign_table(summary: dict) -> str:
+    """The campaign's table, at most 80 columns wide."""
+    kind = "dispersed truths" if summary.get("dispersed") else "one truth"
+    lines = [
+        f"campaign '{summary.get('scenario')}', {summary.get('profile')} profile: {summary['runs']} runs, {kind}",
+        f"{'case':<16}{'mean':>8}{'std':>8}{'RMS':>8}{'in 3s':>7}{'NEES':>7}{'band':>13}{'att NEES':>9}{'div':>4}",
+        f"{'':<16}{'(kg)':>8}{'(kg)':>8}{'(kg)':>8}{'':>7}{'(1)':>7}{'':>13}{'(3)':>9}{'':>4}",
+    ]
+    for name, c in summary["cases"].items():
+        band = c["nees_band"]
+        lines.append(
+            f"{name[:15]:<16}{_num(c['mass_error_mean_kg'], '.1f', 8)}{_num(c['mass_error_std_kg'], '.1f', 8)}"
+            f"{_num(c['mass_error_rms_kg'], '.1f', 8)}{_num(c['inside_3sigma_fraction'], '.0%', 7)}"
+            f"{_num(c['nees_mean'], '.3g', 7)}{f'[{band[0]:.2f},{band[1]:.2f}]':>13}"
+            f"{_num(c['attitude_nees_mean'], '.3g', 9)}{c['diverged_runs']:>4d}"
+        )
+    any_case = next(iter(summary["cases"].values()), {})
+    if any_case.get("attitude_nees_band"):
+        lo, hi = any_case["attitude_nees_band"]
+        lines.append(f"attitude NEES band (95 %, {summary['runs']} runs): [{lo:.2f}, {hi:.2f}]")
+    if any_case.get("crlb_kg"):
+        lines.append(f"Cramer-Rao bound on the mass (nominal model, every sensor): {any_case['crlb_kg']:.3g} kg")
+    if summary.get("resumed_runs"):
+        lines.append(f"resumed: {summary['resumed_runs']} runs were loaded from an interrupted campaign")
+    lines.append(f"wall time {summary['wall_s']:.1f} s")
+    return "\n".join(lines)
+
+
+def _title(summary: dict, what: str) -> str:
+    kind = "dispersed truths" if summary.get("dispersed") else "one truth"
+    return f"{what}: {summary.get('scenario')}, {summary.get('profile')} profile, {summary['runs']} runs ({kind})"
+
+
+def campaign_figures(ds, summary: dict) -> dict:
+    """``{stem: Figure}`` of a campaign (see the module docstring)."""
+    cases = [str(c) for c in ds["case"].values]
+    n_c = len(cases)
+    runs = ds["run"].values
+    t = ds["time"].values
+
+    fig = Figure(figsize=(8, 1.0 + 2.2 * n_c), layout="constrained")
+    for j, case in enumerate(cases):
+        ax = fig.add_subplot(n_c, 1, j + 1)
+        err = ds["mass_error"].values[:, j, :]
+        sig = ds["mass_sigma"].values[:, j, :]
+        last = np.array([np.nonzero(np.isfinite(e))[0][-1] if np.isfinite(e).any() else 0 for e in err])
+        e_f = err[np.arange(len(runs)), last]
+        s_f = sig[np.arange(len(runs)), last]
+        inside = (np.abs(e_f) <= 3.0 * s_f) & ~np.isfinite(ds["diverged_at"].values[:, j])
+        for mask, colour, label in ((inside, "tab:blue", "inside its 3σ"), (~inside, "tab:red", "outside its 3σ")):
+            if mask.any():
+                ax.errorbar(runs[mask], e_f[mask], yerr=3.0 * s_f[mask], fmt="o", ms=3, lw=0.8, capsize=2,
+                            color=colour, label=f"{label} ({int(mask.sum())})")
+        ax.axhline(0.0, color="k", lw=0.8)
+        c = summary["cases"][case]
+        title = f"{case}: {c['inside_3sigma_fraction']:.0%} of the runs inside their 3σ"
+        if c["mass_error_rms_kg"] is not None:
+            title += f", RMS {c['mass_error_rms_kg']:.3g} kg"
+        if c["diverged_runs"]:
+            title += f", {c['diverged_runs']} diverged (last value before divergence shown)"
+        ax.set_title(title, fontsize=9)
+        ax.xaxis.get_major_locator().set_params(integer=True)
+        ax.set_ylabel("final mass error (kg)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.set_xlabel("run")
+    fig.suptitle(_title(summary, "Final mass error and the filter's ±3σ"), fontsize=10)
+
+    fig2 = Figure(figsize=(10, 1.0 + 2.2 * n_c), layout="constrained")
+    for j, case in enumerate(cases):
+        c = summary["cases"][case]
+        with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # instants where every run has diverged
+            m_nees = np.nanmean((ds["mass_error"].values[:, j, :] / ds["mass_sigma"].values[:, j, :]) ** 2, axis=0)
+            a_nees = np.nanmean(ds["attitude_nees"].values[:, j, :], axis=0)
+        for col, (values, band, label) in enumerate(((m_nees, c["nees_band"], "mass NEES (1)"),
+                                                     (a_nees, c["attitude_nees_band"], "attitude NEES (3)"))):
+            ax = fig2.add_subplot(n_c, 2, 2 * j + col + 1)
+            ax.semilogy(t[1:], values[1:], lw=0.8, color="tab:blue", label="mean over runs")
+            ax.axhspan(band[0], band[1], color="tab:green", alpha=0.2, label="95 % band")
+            ax.set_title(f"{case}: {label}", fontsize=9)
+            ax.grid(alpha=0.3, which="both")
+            if j == n_c - 1:
+                ax.set_xlabel("time (s)")
+            if j == 0 and col == 1:
+                ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    fig2.suptitle(_title(summary, "NEES averaged over the runs"), fontsize=10)
+    return {"campaign_final_errors": fig, "campaign_nees": fig2}

@@ -1,0 +1,146 @@
+"""The named parameter vector: inertial-parameter algebra against Pinocchio, derivatives against finite differences."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from postcapture.core.errors import DomainError
+from postcapture.dynamics.bodies import MassProperties
+from postcapture.dynamics.build import build_system, initial_state
+from postcapture.dynamics.integrators import make_integrator
+from postcapture.dynamics.parameters import dmass_direction, dynamic_parameters, mass_properties, transform_matrix
+from postcapture.dynamics.process_model import NativeProcessModel
+
+
+def _random_body(rng):
+    A = rng.standard_normal((3, 3))
+    return MassProperties(rng.uniform(1.0, 10.0), rng.standard_normal(3), A @ A.T + np.eye(3))
+
+
+def test_dynamic_parameters_match_pinocchio(rng=np.random.default_rng(1)):
+    body = _random_body(rng)
+    pi = dynamic_parameters(body)
+    np.testing.assert_allclose(pi, pin.Inertia(body.mass, body.com, body.inertia).toDynamicParameters(), rtol=1e-13)
+    back = mass_properties(pi)
+    np.testing.assert_allclose(back.com, body.com, rtol=1e-12)
+    np.testing.assert_allclose(back.inertia, body.inertia, rtol=1e-12, atol=1e-12)
+
+
+def test_transform_matrix_is_pinocchios_act(rng=np.random.default_rng(2)):
+    body = _random_body(rng)
+    X = pin.SE3.Random()
+    inertia = pin.Inertia(body.mass, body.com, body.inertia)
+    expected = X.act(inertia).toDynamicParameters()
+    L = transform_matrix(X.rotation, X.translation)
+    np.testing.assert_allclose(L @ inertia.toDynamicParameters(), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_mass_direction_is_the_derivative_at_fixed_com_and_inertia(rng=np.random.default_rng(3)):
+    body = _random_body(rng)
+    eps = 1e-4
+    plus = dynamic_parameters(MassProperties(body.mass + eps, body.com, body.inertia))
+    minus = dynamic_parameters(MassProperties(body.mass - eps, body.com, body.inertia))
+    np.testing.assert_allclose(dmass_direction(dynamic_parameters(body)), (plus - minus) / (2 * eps), rtol=1e-8)
+
+
+def test_names_and_nominal_values(envisat):
+    system = build_system(envisat)
+    names = system.parameter_names
+    assert names[:10] == ("target.m", "target.mc_x", "target.mc_y", "target.mc_z", "target.I_xx", "target.I_xy",
+                          "target.I_yy", "target.I_xz", "target.I_yz", "target.I_zz")
+    assert names[10:] == ("chaser_wing.bending_scale", "chaser_wing.torsion_scale", "chaser_wing.damping_scale",
+                          "envisat_wing.bending_scale", "envisat_wing.torsion_scale", "envisat_wing.damping_scale",
+                          "arm.stiffness_scale", "arm.damping_scale")
+    p = system.parameters()
+    np.testing.assert_array_equal(p[10:], 1.0)
+    # the hub plus the panels at rest reproduce the scenario's whole-target mass
+    assert p[0] + system.layout.target_panel_mass == pytest.approx(envisat.target.mass, rel=1e-12)
+
+
+def _fd_columns(system, f):
+    """Fourth-order central differences of ``f()`` over every parameter (steps: 1 kg, 1 kg m, 10 kg m^2, 0.01 of a scale)."""
+    p0 = system.parameters()
+
+    def at(j, delta):
+        p = p0.copy()
+        p[j] += delta
+        system.set_parameters(p)
+        return f()
+
+    cols = []
+    for j in range(p0.size):
+        eps = 1.0 if j < 4 else (10.0 if j < 10 else 1e-2)
+        cols.append((-at(j, 2 * eps) + 8 * at(j, eps) - 8 * at(j, -eps) + at(j, -2 * eps)) / (12 * eps))
+    system.set_parameters(p0)
+    return np.column_stack(cols)
+
+
+def _excited_state(system, seconds=25.0):
+    integ = make_integrator(system, "sdirk3")
+    q, v = initial_state(system)
+    for k in range(int(round(seconds / 0.1))):
+        q, v = integ.step(q, v, 0.1 * k, 0.1)
+    q[:3] = 0.0
+    return q, v, seconds
+
+
+def _column_errors(analytic, fd):
+    scale = np.maximum(np.abs(fd).max(axis=0), 1e-300)
+    return np.abs(analytic - fd).max(axis=0) / scale
+
+
+def test_acceleration_derivatives(envisat):
+    system = build_system(envisat)
+    p0 = system.parameters()
+    p0[13] += 40.0  # a hub CoM off T's origin, so that every inertial column is exercised
+    p0[10:] = [1.1, 0.9, 1.3, 0.95, 1.05, 0.8, 1.2, 0.7]
+    system.set_parameters(p0)
+    q, v, t = _excited_state(system)
+    ddq, _, _, Minv = system.derivatives(q, v, t)
+    analytic = system.ddq_dparams(q, v, ddq, Minv)
+    fd = _fd_columns(system, lambda: system.acceleration(q, v, t))
+    assert np.all(_column_errors(analytic, fd) < 1e-6)
+    assert np.abs(analytic).max(axis=0).min() > 0  # no parameter is invisible in this state
+
+
+def test_step_and_measurement_derivatives(envisat):
+    system = build_system(envisat)
+    q, v, t = _excited_state(system)
+    model = NativeProcessModel(system, 0.1, "sdirk3")
+    model.integrator.newton_tol = model.integrator.newton_atol = 1e-15  # converged stages: FD without Newton noise
+    x = np.concatenate([q, v])
+    pred = model.predict(x, t, 0.1, jacobians=True)
+
+    def step():
+        p = model.predict(x, t, 0.1)
+        return np.concatenate([model.local(p.x, pred.x), p.z])
+
+    fd = _fd_columns(model.system, step)
+    n = model.n
+    assert np.all(_column_errors(pred.G, fd[:n]) < 1e-6)
+    # the measurement at the predicted state moves with the state and with the parameters
+    assert np.all(_column_errors(pred.H @ pred.G + pred.Hp, fd[n:]) < 1e-6)
+    # the mass shortcuts are the same derivative along d p / d m
+    np.testing.assert_allclose(pred.g, pred.G @ model.system.dparams_dmass(), rtol=1e-12)
+
+
+def test_filter_copy_does_not_touch_the_callers_system(envisat):
+    system = build_system(envisat)
+    before = system.model.inertias[system._t_joint].toDynamicParameters().copy()
+    model = NativeProcessModel(system, 0.1)
+    p = model.params
+    p[0] += 100.0
+    p[-1] = 3.0
+    model.set_params(p)
+    np.testing.assert_array_equal(system.model.inertias[system._t_joint].toDynamicParameters(), before)
+    np.testing.assert_array_equal(system.parameters()[-1], 1.0)
+
+
+@pytest.mark.parametrize("index,value,match", [(0, -5.0, "positive mass"), (4, -1e6, "positive definite"),
+                                                 (15, -0.5, "scales >= 0"), (3, np.nan, "finite")])
+def test_non_physical_parameters_are_refused(envisat, index, value, match):
+    system = build_system(envisat)
+    p = system.parameters()
+    p[index] = value
+    with pytest.raises(DomainError, match=match):
+        system.set_parameters(p)
