@@ -98,13 +98,13 @@ def test_names_are_plain(tmp_path, bad):
 def test_not_a_folder_is_refused_and_kept(tmp_path):
     f = tmp_path / "res"
     f.write_text("a file")
-    with pytest.raises(OutputPathError, match="res: it is a regular file; expected a folder"):
+    with pytest.raises(OutputPathError, match="res: a regular file, not a folder"):
         ResultSet(f)
     real = tmp_path / "real"
     real.mkdir()
     link = tmp_path / "link"
     link.symlink_to(real)
-    with pytest.raises(OutputPathError, match="it is a symbolic link; expected a folder"):
+    with pytest.raises(OutputPathError, match="a symbolic link, not a folder"):
         ResultSet(link)
     assert f.read_text() == "a file" and link.is_symlink()
 

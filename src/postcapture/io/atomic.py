@@ -105,11 +105,11 @@ def _kind(mode: int) -> str:
 def _check_text(path, what: str) -> Path:
     text = os.fspath(path) if isinstance(path, (str, os.PathLike)) else None
     if not isinstance(text, str):
-        raise OutputPathError(errno.EINVAL, f"expected a {what} path, found {path!r}", None)
+        raise OutputPathError(errno.EINVAL, f"not a {what} path: {path!r}", None)
     if not text.strip():
-        raise OutputPathError(errno.EINVAL, f"expected a {what} path, found an empty string", None)
+        raise OutputPathError(errno.EINVAL, f"an empty {what} path", None)
     if "\x00" in text:
-        raise OutputPathError(errno.EINVAL, f"expected a {what} path, found a NUL character in it", repr(text))
+        raise OutputPathError(errno.EINVAL, f"a NUL character in a {what} path", repr(text))
     p = Path(text)
     if len(os.fsencode(p.name)) + _DECORATION > _NAME_MAX:
         raise OutputPathError(errno.ENAMETOOLONG, f"the name is too long (at most {_NAME_MAX - _DECORATION} bytes)",
@@ -153,7 +153,7 @@ def check_output_file(path) -> Path:
         raise OutputPathError(exc.errno or errno.EIO, exc.strerror or str(exc), str(p)) from None
     if st is not None and not stat.S_ISREG(st.st_mode):
         raise OutputPathError(errno.EISDIR if stat.S_ISDIR(st.st_mode) else errno.EINVAL,
-                              f"it is {_kind(st.st_mode)}; expected a regular file (it is left untouched)", str(p))
+                              f"{_kind(st.st_mode)}, not a regular file (left untouched)", str(p))
     _check_parent(p)
     return p
 
@@ -175,8 +175,7 @@ def check_output_folder(path) -> Path:
     except OSError as exc:
         raise OutputPathError(exc.errno or errno.EIO, exc.strerror or str(exc), str(p)) from None
     if st is not None and not stat.S_ISDIR(st.st_mode):
-        raise OutputPathError(errno.ENOTDIR, f"it is {_kind(st.st_mode)}; expected a folder (it is left untouched)",
-                              str(p))
+        raise OutputPathError(errno.ENOTDIR, f"{_kind(st.st_mode)}, not a folder (left untouched)", str(p))
     if st is not None and not os.access(p, os.W_OK | os.X_OK):
         raise OutputPathError(errno.EACCES, "no permission to write in this folder", str(p))
     _check_parent(p)
@@ -199,8 +198,9 @@ def writer_failure(exc: BaseException, target: Path) -> OutputPathError | None:
     if isinstance(exc, OSError):
         reason = exc.strerror or str(exc)
         code = exc.errno or errno.EIO
-    elif isinstance(exc, RuntimeError):
-        reason, code = f"{exc}", errno.EIO
+    elif isinstance(exc, RuntimeError):  # HDF5 says "NetCDF: HDF error" for a full disk, among others
+        reason, code = f"{exc} (a library's error while writing: a full or read-only file system is one cause)", \
+            errno.EIO
     else:
         return None
     return OutputPathError(code, f"write failed: {reason}{_space_note(target.parent)}", str(target))

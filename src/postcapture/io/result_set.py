@@ -257,8 +257,7 @@ class ResultSet:
         for name in self.names:
             target = self.folder / name
             if os.path.lexists(target) and not stat.S_ISREG(os.lstat(target).st_mode):
-                raise OutputPathError(errno.EINVAL, "it is not a regular file; expected one (left untouched)",
-                                      str(target))
+                raise OutputPathError(errno.EINVAL, "not a regular file (left untouched)", str(target))
         for name in self.names:
             os.replace(tmp / name, self.folder / name)
         os.replace(tmp / MANIFEST, self.folder / MANIFEST)
