@@ -131,8 +131,8 @@ class OutputPathError(PostcaptureError, OSError):
     __reduce__ = OSError.__reduce__  # keeps errno, message and filename (its __init__ is OSError's)
 
     def __str__(self) -> str:
-        if self.filename is not None and self.strerror is not None:
-            return f"{self.filename}: {self.strerror}"
+        if self.strerror is not None:
+            return f"{self.filename}: {self.strerror}" if self.filename else self.strerror
         return super().__str__()
 
 
