@@ -6,6 +6,7 @@ import json
 import sys
 import textwrap
 
+from postcapture.cli import checks
 from postcapture.core.errors import Problem, ScenarioError
 
 __all__ = [
@@ -39,6 +40,7 @@ def _print_json(obj) -> None:
 
 
 def cmd_simulate(args) -> int:
+    checks.simulate(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.dynamics.simulate import drift_metrics, simulate
 
@@ -56,7 +58,7 @@ def cmd_simulate(args) -> int:
             step=args.step,
             progress=update,
         )
-    out = args.out or f"results/simulate_{scenario.name}_{args.variant}.nc"
+    out = args.out or checks.default_simulate_out(scenario, args.variant)
     traj.to_netcdf(out)
     wall = traj.attrs["wall_s"]
     duration = float(traj.t[-1] - traj.t[0])
@@ -86,6 +88,7 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_run(args) -> int:
+    checks.run(args)  # everything given, checked before any work
     from postcapture.campaign.main_job import run_main_job
     from postcapture.campaign.results import write_results
     from postcapture.config import load_scenario
@@ -140,6 +143,7 @@ def _truth(args, scenario):
 
 
 def cmd_campaign(args) -> int:
+    checks.campaign(args)  # everything given, checked before any work
     from postcapture.campaign.montecarlo import run_campaign
     from postcapture.campaign.results import write_campaign
     from postcapture.config import load_scenario
@@ -183,6 +187,7 @@ def cmd_campaign(args) -> int:
 
 
 def cmd_fmu_export(args) -> int:
+    checks.fmu_export(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.fmi import export_fmu
 
@@ -214,6 +219,7 @@ def cmd_fmu_export(args) -> int:
 
 
 def cmd_fmu_info(args) -> int:
+    checks.fmu_info(args)  # everything given, checked before any work
     from postcapture.fmi import fmu_info, format_fmu_info
 
     info = fmu_info(args.fmu, mapping=args.map)
@@ -225,6 +231,7 @@ def cmd_fmu_info(args) -> int:
 
 
 def cmd_modes(args) -> int:
+    checks.modes(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.dynamics.build import build_system
     from postcapture.dynamics.modes import structural_modes
@@ -255,6 +262,7 @@ def cmd_modes(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    checks.bench(args)  # everything given, checked before any work
     if args.accuracy:
         return cmd_accuracy(args)
     from postcapture.campaign.bench import run_benchmark
@@ -302,6 +310,7 @@ def cmd_accuracy(args) -> int:
 
 
 def cmd_panel_calibrate(args) -> int:
+    checks.panel_calibrate(args)  # everything given, checked before any work
     from postcapture.panels import calibrate
     from postcapture.report.panels import calibration_figures
 
