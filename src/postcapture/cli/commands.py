@@ -319,7 +319,7 @@ def cmd_panel_calibrate(args) -> int:
             print(f"  [{done}/{total}] {message}", file=sys.stderr)
 
     result = calibrate(args.panel, segments=args.segments, weights=args.weights, reference=args.reference,
-                       progress=progress)
+                       force_reference=args.force_reference, progress=progress)
     if args.out:
         result.write(args.out, figures=calibration_figures)
     if args.json:

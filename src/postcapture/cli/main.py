@@ -204,6 +204,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--reference", default="fem", metavar="fem|OP2FILE",
                    help="the built-in plate FEM, or modes read from a Nastran OP2 file")
     c.add_argument("--out", default=None, metavar="DIR", help="write tables, JSON, a TOML fragment and figures here")
+    c.add_argument("--force-reference", action="store_true",
+                   help="use an OP2 reference even beyond the tolerance of the project's own FEM (mass, frequencies)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=commands.cmd_panel_calibrate)
 

@@ -2,7 +2,7 @@
 
 `write_bdf` writes the same model that `postcapture.panels.fem.solve_modes` solves (GRID per node,
 CQUAD4 per element, one PCOMP of MAT8 plies, SPC1 on the root, EIGRL with mass normalisation, SOL 103
-with the eigenvectors requested in the OP2), so users can run it in their Nastran. The solar-cell mass
+with the eigenvectors requested in the OP2, ``ENDDATA`` last), so users can run it in their Nastran. The solar-cell mass
 goes either into the density of the top ply, as the reference did, or onto the PCOMP as non-structural
 mass (NSM), because some open solvers mishandle per-ply densities in the PCOMP mass.
 
@@ -149,7 +149,7 @@ def write_bdf(path, geometry: PanelGeometry, laminate: Laminate, *, n_length: in
         model.add_cquad4(e + 1, 1, [int(n) + 1 for n in quad], theta_mcid=0.0)
     model.add_spc1(1, "123456", [int(n) + 1 for n in mesh.root_nodes], comment=" root clamp")
     model.add_eigrl(1, nd=int(n_modes), norm="MASS")
-    model.write_bdf(os.fspath(path), size=16, is_double=False)
+    model.write_bdf(os.fspath(path), size=16, is_double=False, enddata=True)  # MYSTRAN stops without ENDDATA
     logger.info("wrote %s: %d GRID, %d CQUAD4, %d MAT8, SOL 103", os.fspath(path), mesh.n_nodes,
                 mesh.n_elements, len(mids))
     return mesh
