@@ -314,7 +314,8 @@ def _dask_client(scheduler: str | None, workers: int):
     try:
         if scheduler is None:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                   dashboard_address=None, silence_logs=logging.ERROR,
+                                   preload=["postcapture.campaign.pool"])  # workers leave Ctrl-C to us
             client = Client(cluster)
         else:
             try:

@@ -25,7 +25,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from postcapture.core.errors import PostcaptureError, WorkerError
 
-__all__ = ["run_jobs", "guarded", "worker_signals"]
+__all__ = ["run_jobs", "guarded", "worker_signals", "dask_setup"]
 
 logger = logging.getLogger(__name__)
 
@@ -40,6 +40,18 @@ def worker_signals() -> None:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def dask_setup(worker) -> None:
+    """Dask's preload hook: a worker of a local cluster (``preload=["postcapture.campaign.pool"]``) leaves
+    Ctrl-C to the parent, as the case pool's workers do (no KeyboardInterrupt traceback from each).
+
+    Its own Dask logging is kept to critical messages: a task's error reaches the parent with the task,
+    and what a worker logs while the parent stops the cluster (heartbeats to a scheduler already gone,
+    with their tracebacks) is noise on the terminal.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
 
 def guarded(fn: Callable, payload, label: str):
