@@ -71,10 +71,15 @@ class ScenarioError(PostcaptureError, ValueError):
         The file or name the description came from.
     """
 
+    _what = "invalid scenario"  # the head of the message; subclasses name what they validate
+
+    def _head(self, source: str | None) -> str:
+        return f"{self._what} {source!r}" if source else self._what
+
     def __init__(self, problems: list[Problem], source: str | None = None):
         self.problems = list(problems)
         self.source = source
-        head = f"invalid scenario {source!r}" if source else "invalid scenario"
+        head = self._head(source)
         n = len(self.problems)
         lines = [f"{head}: {n} problem{'s' if n != 1 else ''}"]
         lines += [f"  - {p}" for p in self.problems]
@@ -95,13 +100,10 @@ class InputError(ScenarioError):
         What was validated (a command name, a file).
     """
 
-    def __init__(self, problems: list[Problem], source: str | None = None):
-        super().__init__(problems, source)
-        head = f"invalid input to {source}" if source else "invalid input"
-        n = len(self.problems)
-        lines = [f"{head}: {n} problem{'s' if n != 1 else ''}"]
-        lines += [f"  - {p}" for p in self.problems]
-        self.args = ("\n".join(lines),)
+    _what = "invalid input"
+
+    def _head(self, source: str | None) -> str:
+        return f"invalid input to {source}" if source else self._what
 
 
 class ResourceLimitError(PostcaptureError, ValueError):
@@ -234,13 +236,7 @@ class PanelModelError(ScenarioError):
         The file or name the description came from.
     """
 
-    def __init__(self, problems: list[Problem], source: str | None = None):
-        super().__init__(problems, source)
-        head = f"invalid panel model {source!r}" if source else "invalid panel model"
-        n = len(self.problems)
-        lines = [f"{head}: {n} problem{'s' if n != 1 else ''}"]
-        lines += [f"  - {p}" for p in self.problems]
-        self.args = ("\n".join(lines),)
+    _what = "invalid panel model"
 
 
 class NastranError(PostcaptureError, ValueError):

@@ -117,6 +117,17 @@ def _check_text(path, what: str) -> Path:
     return p
 
 
+def _lstat(path, what: str):
+    """The checked path and its ``lstat`` (None when nothing is there yet)."""
+    p = _check_text(path, what)
+    try:
+        return p, os.lstat(p)
+    except (FileNotFoundError, NotADirectoryError):  # the parent check says which part is wrong
+        return p, None
+    except OSError as exc:
+        raise OutputPathError(exc.errno or errno.EIO, exc.strerror or str(exc), str(p)) from None
+
+
 def _check_parent(p: Path) -> None:
     """The first existing ancestor of ``p`` must be a folder we can create entries in."""
     parent = p.absolute().parent
@@ -144,13 +155,7 @@ def check_output_file(path) -> Path:
         For an empty path, a path that exists and is not a regular file (folder, device, FIFO, socket,
         symbolic link), or a parent that is not a folder or not writable.
     """
-    p = _check_text(path, "file")
-    try:
-        st = os.lstat(p)
-    except (FileNotFoundError, NotADirectoryError):  # the parent check below says which part is wrong
-        st = None
-    except OSError as exc:
-        raise OutputPathError(exc.errno or errno.EIO, exc.strerror or str(exc), str(p)) from None
+    p, st = _lstat(path, "file")
     if st is not None and not stat.S_ISREG(st.st_mode):
         raise OutputPathError(errno.EISDIR if stat.S_ISDIR(st.st_mode) else errno.EINVAL,
                               f"{_kind(st.st_mode)}, not a regular file (left untouched)", str(p))
@@ -167,13 +172,7 @@ def check_output_folder(path) -> Path:
         For an empty path, a path that exists and is not a folder (file, device, symbolic link, ...), or
         a parent that is not a folder or not writable.
     """
-    p = _check_text(path, "folder")
-    try:
-        st = os.lstat(p)
-    except (FileNotFoundError, NotADirectoryError):  # the parent check below says which part is wrong
-        st = None
-    except OSError as exc:
-        raise OutputPathError(exc.errno or errno.EIO, exc.strerror or str(exc), str(p)) from None
+    p, st = _lstat(path, "folder")
     if st is not None and not stat.S_ISDIR(st.st_mode):
         raise OutputPathError(errno.ENOTDIR, f"{_kind(st.st_mode)}, not a folder (left untouched)", str(p))
     if st is not None and not os.access(p, os.W_OK | os.X_OK):
