@@ -4,14 +4,17 @@ A chaser spacecraft holds a large tumbling target (Envisat) through a 7-DoF mani
 flexible joints; both spacecraft carry flexible solar panels. The package simulates that system
 with Pinocchio, generates sensor data, and estimates the chaser attitude and the target mass.
 
-The curated public API is re-exported here; see the README for a tour.
+The short API (see the README, section "Python API"); every function imports what it needs when
+called, so ``import postcapture`` stays light:
+
+- :func:`load_scenario`: a validated scenario from a built-in name or a TOML file;
+- :func:`simulate`: the truth simulation, a :class:`~postcapture.dynamics.trajectory.Trajectory`;
+- :func:`run`: the main job, a :class:`RunResult` (``.table``, ``.to_xarray()``, ``.to_pandas()``);
+- :func:`calibrate_panel`: a panel's lumped chain against the plate FEM;
+- :func:`export_fmu`: the plant as an FMI 2.0 co-simulation FMU.
 """
 
-from importlib.metadata import PackageNotFoundError, version
+from postcapture._version import __version__
+from postcapture.facade import RunResult, calibrate_panel, export_fmu, load_scenario, run, simulate
 
-try:
-    __version__ = version("postcapture")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0"
-
-__all__ = ["__version__"]
+__all__ = ["__version__", "load_scenario", "simulate", "run", "RunResult", "calibrate_panel", "export_fmu"]

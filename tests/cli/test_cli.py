@@ -154,7 +154,7 @@ def test_run_json_and_files(capsys, tmp_path):
         for key in ("mass_error_kg", "mass_sigma_kg", "attitude_rms_arcsec", "inside_3sigma", "nees_mean", "wall_s"):
             assert key in case
     assert summary["wall_s"] > 0
-    for f in ("results.nc", "summary.json", "table.txt", "fig4a_quaternion.png", "fig5_mass.png"):
+    for f in ("results.nc", "summary.json", "table.txt", "attitude_estimates.png", "mass_estimates.png"):
         assert (out / f).exists()
 
 

@@ -65,6 +65,15 @@ def test_fmu_info(envisat_fmu):
     assert {v["name"] for v in info["variables"]} >= {"target_mass", "x_corr[1]", "F[50,50]"}
     text = format_fmu_info(info)
     assert "F[1..50,1..50]" in text and "der(q[1..26])" in text and "satisfied" in text
+    _fits_80_columns_and_keeps_every_description(info, text)
+
+
+def _fits_80_columns_and_keeps_every_description(info, text):
+    assert max(len(line) for line in text.splitlines()) <= 80
+    flat = " ".join(text.split())
+    for v in info["variables"]:
+        if v["description"] and "[" not in v["name"]:  # array families show their first description
+            assert " ".join(v["description"].split()) in flat, v["name"]
 
 
 def test_fmu_info_without_mapping(tiny_dir, tmp_path):
@@ -78,4 +87,5 @@ def test_fmu_info_without_mapping(tiny_dir, tmp_path):
     info = fmu_info(lonely)
     assert info["mapping"]["source"] is None and not info["mapping"]["satisfied"]
     assert "correction.reset" in format_fmu_info(info)
+    _fits_80_columns_and_keeps_every_description(info, format_fmu_info(info))
     assert fmu_info(lonely, mapping=path.with_suffix(".toml"))["mapping"]["satisfied"]

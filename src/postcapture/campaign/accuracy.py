@@ -42,13 +42,19 @@ def integrator_accuracy(
     ref_step: float = 2.5e-4,
     cases=CASES,
     progress: Callable[[str], None] | None = None,
+    task_progress: Callable[[str, float], None] | None = None,
 ) -> dict:
     """Maximum deviations from RK4 at ``ref_step`` over ``duration`` seconds, forced and free.
 
     Returns ``{"forced": {"sdirk3 h=0.1": {...}, ...}, "free": {...}}`` with attitude (arcsec), body
     rate (rad/s), and the largest deviation of the panel tip deflection, chaser acceleration and arm
     joint accelerations relative to their largest value, plus the wall time of each run.
+    ``progress(message)`` is called as each run starts, ``task_progress(run, fraction)`` as it advances.
     """
+
+    def runner(name):
+        return None if task_progress is None else (lambda fraction: task_progress(name, fraction))
+
     scenario = load_scenario(scenario_name)
     panel = scenario.target.panels[0].name if scenario.target and scenario.target.panels else scenario.chaser.panels[0].name
     out: dict = {"duration_s": duration, "reference": f"rk4 h={ref_step}"}
@@ -57,13 +63,15 @@ def integrator_accuracy(
         q0, v0 = initial_state(system)
         if progress:
             progress(f"{label}: reference rk4 h={ref_step}")
-        ref = simulate_system(system, q0, v0, duration, step=ref_step, sample_period=0.1, integrator="rk4")
+        ref = simulate_system(system, q0, v0, duration, step=ref_step, sample_period=0.1, integrator="rk4",
+                              progress=runner(f"{label} rk4 h={ref_step}"))
         rows = {}
         for method, h in cases:
             if progress:
                 progress(f"{label}: {method} h={h}")
             t0 = time.perf_counter()
-            traj = simulate_system(system, q0, v0, duration, step=h, sample_period=0.1, integrator=method)
+            traj = simulate_system(system, q0, v0, duration, step=h, sample_period=0.1, integrator=method,
+                                   progress=runner(f"{label} {method} h={h}"))
             rows[f"{method} h={h}"] = {**_errors(traj, ref, panel), "wall_s": time.perf_counter() - t0}
         out[label] = rows
     return out

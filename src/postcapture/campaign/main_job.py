@@ -205,7 +205,9 @@ def run_main_job(
         every case then runs on that FMU, whatever its case name's variant).
     mapping : str, optional
         The FMU's mapping TOML (default: the one inside the FMU or next to it).
-    progress : callable(message, fraction), optional
+    progress : callable(task, fraction), optional
+        Called as each task advances: ``task`` is ``"truth simulation"``, a case name or ``"crlb"``,
+        ``fraction`` the part of that task done (0 to 1; 1 when it ends).
 
     Raises
     ------
@@ -222,15 +224,14 @@ def run_main_job(
 
     tell("truth simulation", 0.0)
     t0 = time.perf_counter()
-    traj = simulate_truth(plan, progress=lambda f: tell("truth simulation", 0.15 * f))
+    traj = simulate_truth(plan, progress=lambda f: tell("truth simulation", f))
     truth_wall = time.perf_counter() - t0
     sensors, dq0 = draw_sensors(plan, traj, plan.seed)
     base = {"plan": plan, "sensors": sensors, "q_true0": traj["q_BN"][:, 0], "dq0": dq0}
-    jobs = [(_run_case, {**base, "case": c}) for c in plan.cases]
+    jobs = [(_run_case, {**base, "case": c}, c) for c in plan.cases]
     if crlb:
-        jobs.append((_run_crlb, base))
-    outputs = run_jobs(jobs, workers=workers,
-                       on_done=lambda name, done, total: tell(f"{name} done", 0.15 + 0.85 * done / total))
+        jobs.append((_run_crlb, base, "crlb"))
+    outputs = run_jobs(jobs, workers=workers, on_progress=tell, on_done=lambda name, done, total: tell(name, 1.0))
     truth_info = plan.truth.describe(scenario)
     m_true = truth_info["target_mass"]
     res = MainJobResult(scenario.name, plan.profile_name, float(traj.t[-1] - traj.t[0]), m_true, plan.initial_mass,

@@ -1,33 +1,43 @@
 """Run independent jobs (the main job's cases) in worker processes, or in this process.
 
-A job is ``(function, payload)``; ``function(payload, progress)`` returns ``(name, value)`` and may call
-``progress(fraction)`` as it goes. The functions must be importable at module level (they are pickled
-to the workers).
+A job is ``(function, payload)`` or ``(function, payload, label)``; ``function(payload, progress)``
+returns ``(name, value)`` and may call ``progress(fraction)`` as it goes. The functions must be
+importable at module level (they are pickled to the workers).
+
+Progress from the workers travels back on a multiprocessing queue, handed to each worker when it
+starts; this process reads it while it waits for the results and passes ``(label, fraction)`` on.
 
 Process handling:
 
-* each worker has a top-level handler (:func:`guarded`): errors a user can cause (postcapture's own,
+* each worker has a top-level handler (:func:`_call`): errors a user can cause (postcapture's own,
   ``OSError``, ``MemoryError``) reach the parent as raised; anything else is a bug and comes back as a
   :class:`~postcapture.core.errors.WorkerError` carrying the worker's traceback as text;
 * workers ignore SIGINT: a Ctrl-C in a terminal (sent to the whole process group) is handled by the
   parent alone, which stops the workers at once (terminate, then kill) and re-raises
   ``KeyboardInterrupt``; no worker prints a traceback and the parent does not wait for running jobs.
+  The first failure of a job stops the others the same way.
 """
 
 from __future__ import annotations
 
 import logging
 import multiprocessing
+import queue as queue_module
 import signal
 import traceback
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 from postcapture.core.errors import PostcaptureError, WorkerError
 
-__all__ = ["run_jobs", "guarded", "worker_signals", "dask_setup"]
+__all__ = ["run_jobs", "worker_signals", "dask_setup"]
 
 logger = logging.getLogger(__name__)
+
+_progress_queue = None  # in a worker: where its jobs' progress goes (set by _init_worker)
+
+POLL_S = 0.1
+"""How often this process reads the workers' progress while it waits (s)."""
 
 _STOP_WAIT_S = 2.0  # how long terminated workers get to exit before they are killed
 
@@ -54,24 +64,39 @@ def dask_setup(worker) -> None:
     logging.getLogger("distributed").setLevel(logging.CRITICAL)
 
 
-def guarded(fn: Callable, payload, label: str):
-    """Call ``fn(payload, None)`` in a worker with the top-level handler of the module text."""
+def _init_worker(progress_queue) -> None:
+    global _progress_queue
+    worker_signals()
+    _progress_queue = progress_queue
+
+
+def _call(fn, payload, label):
+    """A job in a worker, under the top-level handler of the module text."""
+    q = _progress_queue
     try:
-        return fn(payload, None)
+        return fn(payload, None if q is None else (lambda fraction: q.put((label, float(fraction)))))
     except (PostcaptureError, OSError, MemoryError):
         raise
     except Exception as exc:  # a bug: its traceback exists only here, so it travels as text
-        raise WorkerError(label, type(exc).__name__, str(exc), traceback.format_exc()) from None
+        raise WorkerError(f"{fn.__name__}({label})", type(exc).__name__, str(exc), traceback.format_exc()) from None
 
 
-def _label(fn: Callable, payload) -> str:
-    case = payload.get("case") if isinstance(payload, dict) else None
-    return f"{fn.__name__}({case})" if case else fn.__name__
+def _drain(progress_queue, on_progress) -> None:
+    while True:
+        try:
+            label, fraction = progress_queue.get_nowait()
+        except queue_module.Empty:
+            return
+        on_progress(label, fraction)
+
+
+def _labelled(jobs) -> list[tuple[Callable, dict, str]]:
+    return [(job[0], job[1], str(job[2]) if len(job) > 2 else str(i)) for i, job in enumerate(jobs)]
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:
     """Stop every worker now: cancel queued jobs, terminate running ones, kill the stubborn."""
-    processes = list(getattr(pool, "_processes", {}).values())  # no public handle before Python 3.14
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle before Python 3.14
     pool.shutdown(wait=False, cancel_futures=True)
     for proc in processes:
         if proc.is_alive():
@@ -84,21 +109,25 @@ def _stop(pool: ProcessPoolExecutor) -> None:
 
 
 def run_jobs(
-    jobs: Sequence[tuple[Callable, dict]],
+    jobs: Sequence[tuple],
     *,
     workers: int = 2,
     on_done: Callable[[str, int, int], None] | None = None,
+    on_progress: Callable[[str, float], None] | None = None,
 ) -> dict:
-    """Run every job and return ``{name: value}``.
+    """Run every job and return ``{name: value}`` (in the order of ``jobs``).
 
     Parameters
     ----------
-    jobs : sequence of (callable, dict)
-        ``fn(payload, progress) -> (name, value)``.
+    jobs : sequence of (callable, dict) or (callable, dict, str)
+        ``fn(payload, progress) -> (name, value)``, and an optional label for the progress reports
+        (default: the job's index).
     workers : int
         Worker processes; 1 (or a single job) runs everything in this process.
     on_done : callable(name, done, total), optional
-        Called as each job finishes (in the order they finish).
+        Called as each job finishes, in the order they finish.
+    on_progress : callable(label, fraction), optional
+        Called, in this process, with the fractions each job reports.
 
     Raises
     ------
@@ -108,26 +137,39 @@ def run_jobs(
     KeyboardInterrupt
         On Ctrl-C, after every worker has been stopped.
     """
-    outputs: dict = {}
-    total = len(jobs)
+    labelled = _labelled(jobs)
+    total = len(labelled)
+    results: list = [None] * total
     if workers > 1 and total > 1:
-        ctx = multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_signals)
+        ctx = (multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods()
+               else multiprocessing.get_context())
+        progress_queue = ctx.Queue() if on_progress is not None else None
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                                   initargs=(progress_queue,))
         try:
-            futures = [pool.submit(guarded, fn, payload, _label(fn, payload)) for fn, payload in jobs]
-            for i, fut in enumerate(as_completed(futures)):  # a failure is seen as soon as it happens
-                name, value = fut.result()
-                outputs[name] = value
-                if on_done is not None:
-                    on_done(name, i + 1, total)
+            futures = {pool.submit(_call, fn, payload, label): i for i, (fn, payload, label) in enumerate(labelled)}
+            pending = set(futures)
+            done_count = 0
+            while pending:
+                finished, pending = wait(pending, timeout=POLL_S, return_when=FIRST_COMPLETED)
+                if progress_queue is not None:
+                    _drain(progress_queue, on_progress)
+                for fut in sorted(finished, key=futures.get):
+                    results[futures[fut]] = fut.result()  # a failure is seen as soon as it happens
+                    done_count += 1
+                    if on_done is not None:
+                        on_done(results[futures[fut]][0], done_count, total)
         except BaseException:
             _stop(pool)
             raise
+        finally:
+            if progress_queue is not None:
+                progress_queue.close()
         pool.shutdown(wait=True)
     else:
-        for i, (fn, payload) in enumerate(jobs):
-            name, value = fn(payload, None)
-            outputs[name] = value
+        for i, (fn, payload, label) in enumerate(labelled):
+            report = None if on_progress is None else (lambda fraction, label=label: on_progress(label, fraction))
+            results[i] = fn(payload, report)
             if on_done is not None:
-                on_done(name, i + 1, total)
-    return outputs
+                on_done(results[i][0], i + 1, total)
+    return dict(results)

@@ -12,13 +12,16 @@ from pathlib import Path
 
 import numpy as np
 
+from postcapture.campaign.cases import CASES
 from postcapture.core import rotations as rot
 from postcapture.io import ResultSet
 
 __all__ = ["RUN_FILES", "CAMPAIGN_FILES", "to_dataset", "write_results", "write_campaign"]
 
-RUN_FILES = ("results.nc", "summary.json", "table.txt", "fig*.png")
-"""Names a results folder of the main job holds (other entries of the folder are kept as they are)."""
+RUN_FILES = ("results.nc", "summary.json", "table.txt", "attitude_estimates.png", "attitude_error_*.png",
+             "mass_estimates.png", "mass_error.png", "fig*.png")
+"""Names a results folder of the main job holds (``fig*.png``: the figures of earlier versions); other
+entries of the folder are kept as they are."""
 CAMPAIGN_FILES = ("campaign.nc", "summary.json", "table.txt", "campaign_*.png")
 """Names a results folder of a campaign holds."""
 
@@ -36,6 +39,7 @@ def to_dataset(result):
     mass = np.full((len(names), n), np.nan)
     mass_s = np.full((len(names), n), np.nan)
     nis = np.full((len(names), n), np.nan)
+    diverged = np.full(len(names), np.nan)
     for i, name in enumerate(names):
         r = result.cases[name].result
         h = r.attitude
@@ -44,6 +48,8 @@ def to_dataset(result):
         err[i][:, ok] = rot.box_minus(result.truth["q_BN"][:, ok], h.q_BN[:, ok])
         sig[i] = np.sqrt(np.einsum("iik->ik", h.P[:3, :3, :]))
         mass[i], mass_s[i], nis[i] = r.mass, r.mass_sigma, h.nis
+        diverged[i] = _divergence_time(h)
+    models = [CASES[name].variant if name in CASES else "other" for name in names]
     ds = xr.Dataset(
         {
             "q_BN_true": (("quat", "time"), result.truth["q_BN"], {"units": "1", "long_name": "true attitude, scalar first"}),
@@ -54,10 +60,13 @@ def to_dataset(result):
             "mass_est": (("case", "time"), mass, {"units": "kg", "long_name": "target mass estimate"}),
             "mass_sigma": (("case", "time"), mass_s, {"units": "kg", "long_name": "mass estimate 1-sigma"}),
             "star_nis": (("case", "time"), nis, {"units": "1", "long_name": "star-tracker NIS"}),
+            "diverged_at": (("case",), diverged,
+                            {"units": "s", "long_name": "time at which the filter diverged (NaN if it did not)"}),
         },
         coords={
-            "time": ("time", t, {"units": "s"}),
-            "case": ("case", names),
+            "time": ("time", t, {"units": "s", "long_name": "time since the start of the run"}),
+            "case": ("case", names, {"long_name": "estimation case"}),
+            "filter_model": ("case", models, {"long_name": "variant of the filter's plant model"}),
             "quat": ("quat", ["w", "x", "y", "z"]),
             "axis": ("axis", ["x", "y", "z"]),
         },
@@ -65,6 +74,8 @@ def to_dataset(result):
             "title": "postcapture main job: attitude and target-mass estimation",
             "scenario": result.scenario,
             "profile": result.profile,
+            "plant": result.plant,
+            "duration_s": result.duration_s,
             "true_mass_kg": result.true_mass,
             "nominal_mass_kg": result.nominal_mass,
             "initial_mass_kg": result.initial_mass,
@@ -75,6 +86,19 @@ def to_dataset(result):
         },
     )
     return ds
+
+
+def _divergence_time(history) -> float:
+    """First instant flagged DIVERGED (or first non-finite estimate) of an attitude history; NaN if none."""
+    from postcapture.estimation.history import StepFlag
+
+    flagged = np.nonzero(np.asarray(history.flags) & StepFlag.DIVERGED)[0]
+    if flagged.size:
+        return float(history.t[flagged[0]])
+    if history.success:
+        return float("nan")
+    bad = np.nonzero(~np.all(np.isfinite(history.q_BN), axis=0))[0]
+    return float(history.t[bad[0]]) if bad.size else float("nan")
 
 
 def write_results(result, out_dir, figures: bool = True) -> dict:
@@ -90,13 +114,9 @@ def write_results(result, out_dir, figures: bool = True) -> dict:
         When ``out_dir`` is not a folder, cannot be written, or a file cannot be written (disk full);
         the previous results are then left as they were.
     """
-    from postcapture.report.estimation import (
-        attitude_error_figure,
-        mass_error_figure,
-        mass_figure,
-        quaternion_figure,
-        results_table,
-    )
+    from postcapture.report.figures import main_job_figures
+    from postcapture.report.style import DPI
+    from postcapture.report.table import results_table
 
     summary = result.summary()
     paths = {}
@@ -106,24 +126,9 @@ def write_results(result, out_dir, figures: bool = True) -> dict:
         paths["table"] = rs.write("table.txt", lambda tmp: Path(tmp).write_text(results_table(summary) + "\n"))
         ds = to_dataset(result)
         paths["results"] = rs.write("results.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
-        if not figures:
-            return paths
-        t = result.truth.t
-        names = list(result.cases)
-        figs = {
-            "fig4a_quaternion": quaternion_figure(t, result.truth["q_BN"],
-                                                  {n: result.cases[n].result.attitude.q_BN for n in names}),
-            "fig5_mass": mass_figure(t, result.true_mass, {n: result.cases[n].result.mass for n in names},
-                                     {n: result.cases[n].result.mass_sigma for n in names}),
-            "fig6_mass_error": mass_error_figure(t, result.true_mass, {n: result.cases[n].result.mass for n in names},
-                                                 result.crlb.all_sensors if result.crlb is not None else None),
-        }
-        for name in names:
-            i = names.index(name)
-            figs[f"fig4b_attitude_error_{name}"] = attitude_error_figure(
-                t, ds["attitude_error"].values[i], ds["attitude_sigma"].values[i], name)
-        for stem, fig in figs.items():
-            paths[stem] = rs.write(f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
+        if figures:
+            for stem, fig in main_job_figures(ds).items():
+                paths[stem] = rs.write(f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=DPI))
     return paths
 
 

@@ -1,4 +1,8 @@
-"""The commands behind ``postcapture``: each parses nothing, calls one library function and prints."""
+"""The commands behind ``postcapture``: each parses nothing, calls one library function and prints.
+
+Results go to stdout, within 80 columns; progress and notes go to stderr (see
+:mod:`postcapture.cli.progress`).
+"""
 
 from __future__ import annotations
 
@@ -7,6 +11,7 @@ import sys
 import textwrap
 
 from postcapture.cli import checks
+from postcapture.cli.progress import MAX_COLUMNS, ProgressDisplay
 from postcapture.core.errors import Problem, ScenarioError
 
 __all__ = [
@@ -21,22 +26,37 @@ __all__ = [
 ]
 
 
-def _progress_bar(desc: str):
-    """A tqdm bar on stderr (hidden when stderr is not a terminal) and a fraction callback."""
-    from tqdm import tqdm
-
-    bar = tqdm(total=1000, desc=desc, unit="‰", disable=None, file=sys.stderr, leave=False)
-
-    def update(fraction: float) -> None:
-        target = int(round(fraction * 1000))
-        if target > bar.n:
-            bar.update(target - bar.n)
-
-    return bar, update
+def _display(args, command: str) -> ProgressDisplay:
+    """The progress display of a command: bars on a terminal (or ``--progress``), none with ``--json``."""
+    mode = getattr(args, "progress", "auto")
+    if getattr(args, "json", False) and mode == "auto":
+        mode = "off"  # a JSON consumer is a program; it asked for --progress if it wants bars
+    return ProgressDisplay(command, mode=mode, verbose=bool(getattr(args, "verbose", False)))
 
 
 def _print_json(obj) -> None:
     print(json.dumps(obj, indent=2, default=float))
+
+
+def _echo(text: str, *, file=None) -> None:
+    """Print text with every line longer than 80 columns wrapped (continuations indented)."""
+    for line in text.splitlines() or [""]:
+        if len(line) <= MAX_COLUMNS:
+            print(line, file=file)
+            continue
+        indent = " " * (len(line) - len(line.lstrip()))
+        for part in textwrap.wrap(line, width=MAX_COLUMNS, subsequent_indent=indent + "  ",
+                                  break_on_hyphens=False, break_long_words=True):
+            print(part, file=file)
+
+
+def _note(text: str) -> None:
+    """A note on stderr, on its own lines."""
+    _echo(f"note: {text}", file=sys.stderr)
+
+
+def _written(folder, names) -> str:
+    return f"written to {folder}/: {', '.join(sorted(names))}"
 
 
 def cmd_simulate(args) -> int:
@@ -45,8 +65,9 @@ def cmd_simulate(args) -> int:
     from postcapture.dynamics.simulate import drift_metrics, simulate
 
     scenario = load_scenario(args.scenario)
-    bar, update = _progress_bar("simulate")
-    with bar:
+    out = args.out or checks.default_simulate_out(scenario, args.variant)
+    with _display(args, "simulate") as shown:
+        shown.phase(f"{scenario.name}, {args.variant} model")
         traj = simulate(
             scenario,
             variant=args.variant,
@@ -56,10 +77,10 @@ def cmd_simulate(args) -> int:
             excitation=not args.free,
             integrator=args.integrator,
             step=args.step,
-            progress=update,
+            progress=shown.fraction_callback("truth simulation"),
         )
-    out = args.out or checks.default_simulate_out(scenario, args.variant)
-    traj.to_netcdf(out)
+        shown.phase("writing the NetCDF file")
+        traj.to_netcdf(out)
     wall = traj.attrs["wall_s"]
     duration = float(traj.t[-1] - traj.t[0])
     summary = {
@@ -78,21 +99,38 @@ def cmd_simulate(args) -> int:
     if args.json:
         _print_json(summary)
     else:
-        print(f"simulated {duration:g} s of '{scenario.name}' ({args.variant}, {summary['n_dof']} DoF, "
+        _echo(f"simulated {duration:g} s of '{scenario.name}' ({args.variant}, {summary['n_dof']} DoF, "
               f"{summary['integrator']} h = {summary['step_s']:g} s) in {wall:.2f} s: "
               f"{summary['real_time_factor']:.1f}x real time")
-        print(f"energy balance drift {summary['energy_drift_rel']:.2e}, "
+        _echo(f"energy balance drift {summary['energy_drift_rel']:.2e}, "
               f"angular momentum balance drift {summary['angular_momentum_drift_rel']:.2e}")
-        print(f"trajectory written to {out}")
+        _echo(f"trajectory written to {out}")
     return 0
+
+
+def _fmu_cases(cases):
+    """The cases an FMU plant runs, and a note when some default cases are left out."""
+    from postcapture.campaign.cases import CASES, DEFAULT_CASES
+
+    if cases is not None:
+        return cases, None
+    kept = tuple(c for c in DEFAULT_CASES if CASES[c].variant == "flexible")
+    skipped = [c for c in DEFAULT_CASES if c not in kept]
+    note = None
+    if skipped:
+        note = (f"--plant fmu: runs every case on the FMU's one plant, so only the cases meant for the flexible "
+                f"model run ({', '.join(kept)}); skipped: {', '.join(skipped)}. To run them, export a stiff "
+                "plant (postcapture fmu export --variant stiff) and pass --cases.")
+    return kept, note
 
 
 def cmd_run(args) -> int:
     checks.run(args)  # everything given, checked before any work
+    from postcapture.campaign.cases import DEFAULT_CASES
     from postcapture.campaign.main_job import run_main_job
     from postcapture.campaign.results import write_results
     from postcapture.config import load_scenario
-    from postcapture.report.estimation import results_table
+    from postcapture.report.table import results_table
 
     scenario = load_scenario(args.scenario)
     truth = _truth(args, scenario)
@@ -101,31 +139,44 @@ def cmd_run(args) -> int:
     if plant != "native":
         if not plant.startswith("fmu:") or not plant[4:]:
             raise ScenarioError([Problem("--plant", "native or fmu:FILE.fmu", repr(plant))])
-        if cases is None:  # an FMU is one plant: run the cases meant for the flexible model
-            cases = ("ekf_flexible", "mekf_flexible", "joint_flexible")
-    bar, update = _progress_bar("run")
-    with bar:
+        cases, note = _fmu_cases(cases)
+        if note:
+            _note(note)
+    cases = cases or DEFAULT_CASES
+    with _display(args, "run") as shown:
+        shown.phase("truth simulation and sensors")
+        jobs = len(cases) + (0 if args.no_crlb else 1)  # the Cramer-Rao bound is one more job
+        processes = 1 if args.workers == 1 or jobs == 1 else min(args.workers, jobs)
+        filters = f"filters: {len(cases)} cases in {processes} process{'es' if processes > 1 else ''}"
+
+        def progress(task: str, fraction: float) -> None:
+            if task != "truth simulation" and shown.current_phase != filters:
+                shown.phase(filters)
+            shown.task(task, fraction)
+
         result = run_main_job(
             scenario,
             truth=truth,
             profile=args.profile,
             duration=args.duration,
-            cases=cases or ("ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff", "joint_flexible"),
+            cases=cases,
             plant=plant,
             mapping=args.map,
             initial_mass_error=args.initial_mass_error,
             seed=args.seed,
             workers=args.workers,
             crlb=not args.no_crlb,
-            progress=lambda msg, frac: (bar.set_description(f"run: {msg}"), update(frac)),
+            progress=progress,
         )
-    paths = write_results(result, args.out, figures=not args.no_plots)
+        shown.phase("writing results" + ("" if args.no_plots else " and figures"))
+        paths = write_results(result, args.out, figures=not args.no_plots)
     summary = result.summary()
     if args.json:
         _print_json(summary)
     else:
         print(results_table(summary))
-        print(f"results written to {args.out}/ ({', '.join(sorted(p.name for p in paths.values()))})")
+        print()
+        _echo(_written(args.out, (p.name for p in paths.values())))
     return 0
 
 
@@ -154,27 +205,20 @@ def cmd_campaign(args) -> int:
         raise ScenarioError([Problem("--truth-scenario", "no fixed truth with --dispersed (each run draws its own)",
                                      args.truth_scenario)])
     truth = _truth(args, scenario)
-    bar = None
+    with _display(args, "campaign") as shown:
+        shown.phase(f"{args.runs} runs")
 
-    def progress(message, done, total):
-        nonlocal bar
-        if message.startswith("resuming"):
-            print(f"postcapture: {message} in {args.out}", file=sys.stderr)
-        if bar is None:
-            from tqdm import tqdm
+        def progress(message, done, total):
+            if message.startswith("resuming"):
+                _note(f"{message} in {args.out}")  # said whatever the display: earlier runs are reused
+            shown.task("runs", done / total if total else 1.0)
 
-            bar = tqdm(total=total, desc="campaign", unit="run", disable=None, file=sys.stderr, leave=False)
-        bar.update(done - bar.n)
-
-    try:
         result = run_campaign(scenario, runs=args.runs, dispersed=args.dispersed, truth=truth, profile=args.profile,
                               cases=args.cases, duration=args.duration, initial_mass_error=args.initial_mass_error,
                               scheduler=args.scheduler, workers=args.workers, out=args.out, fresh=args.fresh,
                               crlb=not args.no_crlb, progress=progress)
-    finally:
-        if bar is not None:
-            bar.close()
-    paths = write_campaign(result, args.out, figures=not args.no_plots)
+        shown.phase("writing results" + ("" if args.no_plots else " and figures"))
+        paths = write_campaign(result, args.out, figures=not args.no_plots)
     summary = result.summary()
     if args.json:
         _print_json(summary)
@@ -194,14 +238,10 @@ def cmd_fmu_export(args) -> int:
     scenario = load_scenario(args.scenario)
     if args.fmi != 2:
         raise ScenarioError([Problem("--fmi", "2 (FMI 3.0 export is not implemented yet)", str(args.fmi))])
-
-    def progress(msg, *rest):
-        if not args.json:
-            print(f"  ... {msg}", file=sys.stderr)
-
-    report = export_fmu(scenario, args.output, variant=args.variant, fmi_version=args.fmi,
-                        directional_derivatives=not args.no_directional, step_jacobian=not args.no_step_jacobian,
-                        panel_segments=args.panel_segments, progress=progress)
+    with _display(args, "fmu export") as shown:
+        report = export_fmu(scenario, args.output, variant=args.variant, fmi_version=args.fmi,
+                            directional_derivatives=not args.no_directional, step_jacobian=not args.no_step_jacobian,
+                            panel_segments=args.panel_segments, progress=lambda msg, *rest: shown.phase(msg))
     info = {
         "fmu": str(report.path), "mapping": str(report.mapping_path), "fmi_version": report.fmi_version,
         "variant": report.variant, "integrator": report.integrator, "step_s": report.step,
@@ -212,9 +252,9 @@ def cmd_fmu_export(args) -> int:
     if args.json:
         _print_json(info)
     else:
-        print(f"exported {info['fmu']} (FMI {info['fmi_version']} co-simulation, {info['variant']}, "
-              f"{info['n_states']} states, {info['n_variables']} variables) in {info['wall_s']:.1f} s; "
-              f"mapping {info['mapping']}")
+        _echo(f"exported {info['fmu']} in {info['wall_s']:.1f} s: FMI {info['fmi_version']} co-simulation, "
+              f"{info['variant']} model, {info['n_states']} states, {info['n_variables']} variables")
+        _echo(f"its variable mapping: {info['mapping']}")
     return 0
 
 
@@ -226,7 +266,7 @@ def cmd_fmu_info(args) -> int:
     if args.json:
         _print_json(info)
     else:
-        print(format_fmu_info(info))
+        _echo(format_fmu_info(info))
     return 0
 
 
@@ -252,12 +292,17 @@ def cmd_modes(args) -> int:
     if args.json:
         _print_json({"scenario": scenario.name, "variant": args.variant, "n_dof": system.nv, "modes": rows})
         return 0
-    print(f"elastic modes of '{scenario.name}' ({args.variant}, {system.nv} DoF) at rest; "
+    _echo(f"elastic modes of '{scenario.name}' ({args.variant}, {system.nv} DoF) at rest; "
           "share = strain energy held by each group")
     print(f"{'#':>3} {'f (Hz)':>10} {'zeta':>7}  what moves")
+    lead = " " * 24
     for r in rows:
         share = ", ".join(f"{k} {v:.0%}" for k, v in sorted(r["strain_energy_share"].items(), key=lambda kv: -kv[1]))
-        print(f"{r['mode']:>3} {r['frequency_hz']:>10.4f} {r['damping_ratio']:>7.4f}  {share}")
+        first = f"{r['mode']:>3} {r['frequency_hz']:>10.4f} {r['damping_ratio']:>7.4f}  "
+        lines = textwrap.wrap(share, width=MAX_COLUMNS - len(first), break_on_hyphens=False) or [""]
+        print(first + lines[0])
+        for more in lines[1:]:
+            print(lead + more)
     return 0
 
 
@@ -267,45 +312,39 @@ def cmd_bench(args) -> int:
         return cmd_accuracy(args)
     from postcapture.campaign.bench import run_benchmark
 
-    bar_msgs = []
-
-    def progress(msg: str) -> None:
-        bar_msgs.append(msg)
-        if not args.json:
-            print(f"  ... {msg}", file=sys.stderr)
-
-    result = run_benchmark(args.scenario, duration=args.duration, progress=progress)
+    with _display(args, "bench") as shown:
+        result = run_benchmark(args.scenario, duration=args.duration, progress=shown.phase)
     if args.json:
         _print_json(result)
         return 0
-    print(f"truth simulation, {result['integrator']} h = {result['step_s']} s, outputs every {result['sample_period_s']} s:")
+    _echo(f"truth simulation, {result['integrator']} h = {result['step_s']} s, "
+          f"outputs every {result['sample_period_s']} s:")
     for n in (5, 20, 50):
         print(f"  N = {n:>2} panel segments ({result[f'n_dof_n{n}']} DoF): {result[f'rtf_n{n}']:.1f}x real time")
     print(f"  exact step Jacobian at N = 5: {result['step_jacobian_ms_n5']:.2f} ms")
     print(f"  model build at N = 50: {result['build_s_n50'] * 1e3:.1f} ms")
     m = result["machine"]
-    print(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, Pinocchio {m['pinocchio']}")
+    _echo(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, Pinocchio {m['pinocchio']}")
     return 0
 
 
 def cmd_accuracy(args) -> int:
     from postcapture.campaign.accuracy import integrator_accuracy
 
-    def progress(msg: str) -> None:
-        if not args.json:
-            print(f"  ... {msg}", file=sys.stderr)
-
-    result = integrator_accuracy(args.scenario, duration=args.duration if args.duration != 60.0 else 40.0, progress=progress)
+    with _display(args, "bench --accuracy") as shown:
+        result = integrator_accuracy(args.scenario, duration=args.duration if args.duration != 60.0 else 40.0,
+                                     task_progress=shown.task)
     if args.json:
         _print_json(result)
         return 0
     print(f"largest deviation from {result['reference']} over {result['duration_s']:g} s")
     for label in ("forced", "free"):
         print(f"  {label}:")
-        print(f"    {'method':<18}{'attitude':>12}{'rate':>11}{'tip':>10}{'accel':>10}{'arm ddq':>10}{'wall':>8}")
+        print(f"    {'method':<18}{'attitude':>10}{'rate':>10}{'tip':>9}{'accel':>9}{'arm ddq':>9}{'wall':>7}")
+        print(f"    {'':<18}{'(arcsec)':>10}{'(rad/s)':>10}{'(rel)':>9}{'(rel)':>9}{'(rel)':>9}{'(s)':>7}")
         for name, r in result[label].items():
-            print(f"    {name:<18}{r['attitude_arcsec']:>9.3g} as{r['rate_rad_s']:>11.2e}{r['tip_rel']:>10.2e}"
-                  f"{r['accel_rel']:>10.2e}{r['arm_ddq_rel']:>10.2e}{r['wall_s']:>7.1f}s")
+            print(f"    {name:<18}{r['attitude_arcsec']:>10.3g}{r['rate_rad_s']:>10.2e}{r['tip_rel']:>9.1e}"
+                  f"{r['accel_rel']:>9.1e}{r['arm_ddq_rel']:>9.1e}{r['wall_s']:>7.1f}")
     return 0
 
 
@@ -314,18 +353,23 @@ def cmd_panel_calibrate(args) -> int:
     from postcapture.panels import calibrate
     from postcapture.report.panels import calibration_figures
 
-    def progress(done, total, message):
-        if not args.json:
-            print(f"  [{done}/{total}] {message}", file=sys.stderr)
+    with _display(args, "panel calibrate") as shown:
 
-    result = calibrate(args.panel, segments=args.segments, weights=args.weights, reference=args.reference,
-                       force_reference=args.force_reference, progress=progress)
-    if args.out:
-        result.write(args.out, figures=calibration_figures)
+        def progress(done, total, message):
+            shown.say(f"  [{done}/{total}] {message}")
+            shown.task("calibration", done / total)
+
+        shown.phase(f"panel {args.panel}, {args.segments} segments")
+        shown.task("calibration", 0.0)
+        result = calibrate(args.panel, segments=args.segments, weights=args.weights, reference=args.reference,
+                           force_reference=args.force_reference, progress=progress)
+        if args.out:
+            shown.phase("writing tables, JSON, TOML and figures")
+            result.write(args.out, figures=calibration_figures)
     if args.json:
         print(result.to_json())
     else:
-        print(result.tables())
+        _echo(result.tables())
         if args.out:
-            print(f"tables, JSON, TOML fragment and figures written to {args.out}")
+            _echo(f"tables, JSON, TOML fragment and figures written to {args.out}")
     return 0

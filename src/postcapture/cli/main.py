@@ -119,7 +119,12 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"postcapture {__version__}")
-    parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="log each phase, each task's start, every 10 %% of it and its end (stderr)")
+    parser.add_argument("--progress", dest="progress", action="store_const", const="on", default="auto",
+                        help="progress bars on stderr even when it is not a terminal")
+    parser.add_argument("--no-progress", dest="progress", action="store_const", const="off",
+                        help="no progress bars, even on a terminal")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     def scenario_args(p):

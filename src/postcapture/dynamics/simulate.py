@@ -21,7 +21,7 @@ from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.integrators import make_integrator
 from postcapture.dynamics.outputs import OutputRecorder
 from postcapture.dynamics.system import System
-from postcapture.dynamics.trajectory import Trajectory
+from postcapture.dynamics.trajectory import StateLayout, Trajectory
 
 __all__ = ["simulate", "simulate_system", "balance_integrand", "drift_metrics"]
 
@@ -159,7 +159,8 @@ def simulate_system(
         "wall_s": wall,
         "newton_iterations": integ.stats["newton_iterations"],
     }
-    return Trajectory(np.array([t0 + k * sample_period for k in range(n)]), q_hist, v_hist, a_hist, outputs, specs, attrs)
+    return Trajectory(np.array([t0 + k * sample_period for k in range(n)]), q_hist, v_hist, a_hist, outputs, specs, attrs,
+                      layout=StateLayout.from_system(system))
 
 
 def simulate(

@@ -13,6 +13,8 @@ import warnings
 import numpy as np
 from matplotlib.figure import Figure
 
+from postcapture.report.style import artist_gid, case_style, legend_outside
+
 __all__ = ["campaign_table", "campaign_figures"]
 
 
@@ -71,10 +73,12 @@ def campaign_figures(ds, summary: dict) -> dict:
         e_f = err[np.arange(len(runs)), last]
         s_f = sig[np.arange(len(runs)), last]
         inside = (np.abs(e_f) <= 3.0 * s_f) & ~np.isfinite(ds["diverged_at"].values[:, j])
-        for mask, colour, label in ((inside, "tab:blue", "inside its 3σ"), (~inside, "tab:red", "outside its 3σ")):
+        colour = case_style(case).color
+        for mask, fmt, label in ((inside, "o", "inside its 3σ"), (~inside, "X", "outside its 3σ")):
             if mask.any():
-                ax.errorbar(runs[mask], e_f[mask], yerr=3.0 * s_f[mask], fmt="o", ms=3, lw=0.8, capsize=2,
-                            color=colour, label=f"{label} ({int(mask.sum())})")
+                ax.errorbar(runs[mask], e_f[mask], yerr=3.0 * s_f[mask], fmt=fmt, ms=3 if fmt == "o" else 6, lw=0.8,
+                            capsize=2, color=colour, mec="black" if fmt == "X" else colour,
+                            label=f"{case}: {label} ({int(mask.sum())})")
         ax.axhline(0.0, color="k", lw=0.8)
         c = summary["cases"][case]
         title = f"{case}: {c['inside_3sigma_fraction']:.0%} of the runs inside their 3σ"
@@ -86,9 +90,9 @@ def campaign_figures(ds, summary: dict) -> dict:
         ax.xaxis.get_major_locator().set_params(integer=True)
         ax.set_ylabel("final mass error (kg)")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     ax.set_xlabel("run")
     fig.suptitle(_title(summary, "Final mass error and the filter's ±3σ"), fontsize=10)
+    legend_outside(fig)
 
     fig2 = Figure(figsize=(10, 1.0 + 2.2 * n_c), layout="constrained")
     for j, case in enumerate(cases):
@@ -100,13 +104,13 @@ def campaign_figures(ds, summary: dict) -> dict:
         for col, (values, band, label) in enumerate(((m_nees, c["nees_band"], "mass NEES (1)"),
                                                      (a_nees, c["attitude_nees_band"], "attitude NEES (3)"))):
             ax = fig2.add_subplot(n_c, 2, 2 * j + col + 1)
-            ax.semilogy(t[1:], values[1:], lw=0.8, color="tab:blue", label="mean over runs")
-            ax.axhspan(band[0], band[1], color="tab:green", alpha=0.2, label="95 % band")
+            ax.semilogy(t[1:], values[1:], color=case_style(case).color, linestyle=case_style(case).linestyle,
+                        lw=1.0, label=f"{case}: mean over runs", gid=artist_gid(case, "line"))
+            ax.axhspan(band[0], band[1], color="0.5", alpha=0.2, label="95 % band of the mean")
             ax.set_title(f"{case}: {label}", fontsize=9)
             ax.grid(alpha=0.3, which="both")
             if j == n_c - 1:
                 ax.set_xlabel("time (s)")
-            if j == 0 and col == 1:
-                ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig2.suptitle(_title(summary, "NEES averaged over the runs"), fontsize=10)
+    legend_outside(fig2)
     return {"campaign_final_errors": fig, "campaign_nees": fig2}

@@ -164,7 +164,7 @@ def export_fmu(
     """
     import_casadi()
     fmpy = import_fmpy()
-    from postcapture import __version__
+    from postcapture._version import __version__
     from postcapture.config import load_scenario
     from postcapture.dynamics.build import build_system, initial_state
     from postcapture.dynamics.integrators import TABLEAUX
