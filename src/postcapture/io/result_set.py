@@ -46,6 +46,16 @@ _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
 
+def _version() -> str:
+    """This package's version, without importing ``postcapture`` itself (it imports every layer)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("postcapture")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
 def _exchange(a: Path, b: Path) -> bool:
     """Swap two paths atomically (Linux ``renameat2``); False where the system cannot."""
     try:
@@ -207,9 +217,7 @@ class ResultSet:
         return names
 
     def _write_manifest(self, where: Path) -> None:
-        from postcapture import __version__
-
-        text = json.dumps({"kind": self.kind, "files": sorted(self.names), "written_by": f"postcapture {__version__}"},
+        text = json.dumps({"kind": self.kind, "files": sorted(self.names), "written_by": f"postcapture {_version()}"},
                           indent=1)
         (where / MANIFEST).write_text(text + "\n", encoding="utf-8")
 
