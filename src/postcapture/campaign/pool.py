@@ -78,7 +78,9 @@ def _call(fn, payload, label):
     except (PostcaptureError, OSError, MemoryError):
         raise
     except Exception as exc:  # a bug: its traceback exists only here, so it travels as text
-        raise WorkerError(f"{fn.__name__}({label})", type(exc).__name__, str(exc), traceback.format_exc()) from None
+        case = payload.get("case") if isinstance(payload, dict) else None
+        raise WorkerError(f"{fn.__name__}({case or label})", type(exc).__name__, str(exc),
+                          traceback.format_exc()) from None
 
 
 def _drain(progress_queue, on_progress) -> None:
