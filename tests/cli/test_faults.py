@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+from postcapture.campaign.results import RUN_FILES
+from postcapture.io import ResultSet
 from postcapture.io.atomic import TAG
 
 EXE = str(Path(sys.executable).parent / "postcapture")
@@ -140,11 +142,10 @@ def test_sigkill_while_writing_leaves_the_previous_set(previous_set, tmp_path, d
     proc.wait()
     assert _snapshot(out) == snap  # the previous complete set, untouched
     assert _temporaries(tmp_path), "the kill was meant to land while the set was being written"
-    done = subprocess.run([EXE, *QUICK, "--out", str(out)], capture_output=True, text=True, timeout=300, env=_env())
-    assert done.returncode == 0, done.stderr
-    assert _temporaries(tmp_path) == []  # the killed writer's folder went with the next write
+    with ResultSet(out, owned=RUN_FILES) as rs:  # the next write of a set there (a run's, here an empty one)
+        assert _temporaries(tmp_path) == [rs._tmp.name]  # the killed writer's folder is gone
+    assert _temporaries(tmp_path) == []
     assert (out / "my_notes.txt").read_text() == "not ours: must survive every run"
-    assert set(_snapshot(out)) == set(snap)
 
 
 @pytest.fixture(scope="module")
@@ -156,7 +157,7 @@ def enospc_shim(tmp_path_factory):
     return folder / "full.so"
 
 
-@pytest.mark.parametrize("fraction", [0.02, 0.4, 0.9])
+@pytest.mark.parametrize("fraction", [0.02, 0.6])
 def test_full_file_system_leaves_the_previous_set(previous_set, tmp_path, enospc_shim, fraction):
     out, snap = _fresh_copy(previous_set, tmp_path)
     budget = int(fraction * sum(p.stat().st_size for p in out.iterdir()))
