@@ -82,3 +82,10 @@ def test_with_panel_segments_returns_a_validated_copy(envisat):
     sc = envisat.with_panel_segments(8)
     assert all(p.segments == 8 and len(p.bending_stiffness) == 8 for _, p in sc.panels())
     assert type(sc).model_validate(sc.model_dump()) == sc
+
+
+@pytest.mark.parametrize("seed", [-1, 2**63, 1180591620717411303424])
+def test_a_seed_fits_the_results_file(envisat_dict, seed):
+    envisat_dict["estimation"]["seed"] = seed  # written as an int64 attribute at the very end of a run
+    with pytest.raises(ScenarioError, match=r"estimation\.seed: expected a number (>=|<) "):
+        scenario_from_dict(envisat_dict)

@@ -92,11 +92,13 @@ def _nonnegative_int(text: str) -> int:
 
 
 def _seed(text: str) -> int:
+    from postcapture.config.types import SEED_LIMIT
+
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a seed, an integer in [0, 2**63), found {text!r}") from None
-    if not 0 <= value < 2**63:
+    if not 0 <= value < SEED_LIMIT:
         raise argparse.ArgumentTypeError(f"expected a seed, an integer in [0, 2**63), found {text!r}")
     return value
 

@@ -75,6 +75,8 @@ def _expected(err: dict) -> str:
         return f"a number >= {ctx.get('ge')}"
     if kind == "less_than_equal":
         return f"a number <= {ctx.get('le')}"
+    if kind == "less_than":
+        return f"a number < {ctx.get('lt')}"
     if kind in ("too_short", "too_long", "tuple_type"):
         return err["msg"].replace("Tuple should have", "").replace("Input should be", "").strip() or err["msg"]
     if kind == "literal_error":

@@ -20,6 +20,8 @@ from pydantic_core import PydanticCustomError
 
 __all__ = [
     "Frozen",
+    "SEED_LIMIT",
+    "Seed",
     "Vec3",
     "Mat3",
     "PositiveFloat",
@@ -79,6 +81,9 @@ class Frozen(BaseModel):
         return data
 
 
+SEED_LIMIT = 2**63
+"""Seeds are integers in ``[0, SEED_LIMIT)``: they are written into the results files as int64."""
+Seed = Annotated[int, Field(ge=0, lt=SEED_LIMIT)]
 PositiveFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 Vec3 = tuple[float, float, float]
