@@ -9,7 +9,7 @@ from panel_cases import write_modes_op2
 
 import pyNastran  # noqa: F401 - the panels extra is part of the test install
 
-from postcapture.core.errors import NastranError
+from postcapture.core.errors import NastranError, OutputPathError
 from postcapture.panels import builtin_panel, calibrate, read_op2_modes, solve_modes, write_bdf
 from postcapture.panels.calibrate import OP2_TOLERANCE, compare_with_fem
 from postcapture.panels.mesh import panel_mesh
@@ -22,6 +22,8 @@ def test_the_deck_ends_with_enddata(tmp_path):
     lines = [line.strip() for line in path.read_text().splitlines() if line.strip()]
     assert lines[-1] == "ENDDATA" and lines.count("ENDDATA") == 1
     assert lines.index("BEGIN BULK") < len(lines) - 1
+    with pytest.raises(OutputPathError, match="a character device, not a regular file"):
+        write_bdf("/dev/null", geometry, laminate, n_length=6, n_width=2)
 
 
 def _op2(path, modes):
