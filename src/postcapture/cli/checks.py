@@ -87,15 +87,13 @@ class Pass:
                 given[field] = option
                 # a check across the section (the step against the scenario's sample period): every option in it
                 given[section] = f"{given[section]}, {option}" if section in given else option
+        from pydantic import ValidationError
+
+        from postcapture.config.loader import problems_from_validation
+
         try:
             effective = type(scenario).model_validate(data)
-        except Exception as exc:  # a pydantic ValidationError: report it as the loader does
-            from pydantic import ValidationError
-
-            from postcapture.config.loader import problems_from_validation
-
-            if not isinstance(exc, ValidationError):
-                raise
+        except ValidationError as exc:  # reported as the loader does, paths renamed to the options
             self.absorb(ScenarioError(problems_from_validation(exc)), given)
             return None
         segments = getattr(args, "panel_segments", None)

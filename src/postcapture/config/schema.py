@@ -28,6 +28,7 @@ from postcapture.config.types import (
     check_inertia,
     problem,
 )
+from postcapture.core.errors import Problem, ScenarioError
 from typing import Annotated
 
 __all__ = [
@@ -86,8 +87,6 @@ class Panel(Frozen):
         ScenarioError
             If ``n`` is not an integer in ``[1, MAX_SEGMENTS]`` (checked before anything is allocated).
         """
-        from postcapture.core.errors import Problem, ScenarioError
-
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_SEGMENTS:
             raise ScenarioError([Problem(f"{self.name}.segments", f"an integer in [1, {MAX_SEGMENTS}]", repr(n))])
         k = refine_stiffness(self.bending_stiffness, self.length, int(n))
