@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from postcapture.config.limits import check_resources, estimate_simulation
 from postcapture.config.schema import Scenario
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.integrators import make_integrator
@@ -112,6 +113,8 @@ def simulate_system(
     per = int(round(ratio))
     if per < 1 or abs(ratio - per) > 1e-9:
         raise ValueError(f"sample_period: expected a whole multiple of step = {step}, found {sample_period}")
+    check_resources(estimate_simulation(nv=system.nv, duration=duration, step=step, sample_period=sample_period,
+                                        integrator=integrator))
     n = int(round(duration / sample_period)) + 1
     integ = make_integrator(system, integrator)
     rec = OutputRecorder(system, n)
