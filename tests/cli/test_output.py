@@ -39,10 +39,19 @@ def test_verbose_logs_phases_and_each_case(capsys, caplog, tmp_path):
     assert "Target mass at the end of the run" in capsys.readouterr().out
 
 
-def test_an_fmu_plant_says_which_cases_it_skips(capsys, tmp_path):
+def test_an_fmu_plant_says_which_cases_it_skips(capsys, tmp_path, monkeypatch):
+    import postcapture.campaign.main_job as main_job
+    from postcapture.cli import checks
+    from postcapture.core.errors import FMIError
+
+    def stop(*args, **kwargs):  # the FMU does not exist: stop where the job would start
+        raise FMIError("no such file", fmu=str(tmp_path / "missing.fmu"), function="open")
+
+    monkeypatch.setattr(checks, "run", lambda args: None)  # (the validation pass would refuse it first)
+    monkeypatch.setattr(main_job, "run_main_job", stop)
     code = main(["run", "--plant", f"fmu:{tmp_path / 'missing.fmu'}", "--duration", "1", "--no-crlb",
                  "--out", str(tmp_path / "o")])
-    assert code == 1  # the FMU does not exist; the note comes first
+    assert code == 1  # the note comes first
     err = capsys.readouterr().err
     assert err.startswith("note: --plant fmu:")
     assert "skipped: dual, joint, ekf_stiff, mekf_stiff" in " ".join(err.split())

@@ -32,7 +32,7 @@ def test_not_an_fmu(tmp_path):
 
 def test_model_exchange_only(tiny_dir):
     path = build_tiny_fmu(tiny_dir, "me_only")
-    with pytest.raises(FMIError, match="model-exchange-only") as err:
+    with pytest.raises(FMIError, match="offers model-exchange; a process model needs the co-simulation") as err:
         FMUProcessModel(path)
     assert str(path) in str(err.value)
     assert not fmu_info(path)["mapping"]["satisfied"]
@@ -92,16 +92,25 @@ def test_no_fmu_state_for_finite_differences(tiny_dir):
 def test_states_cannot_be_set_after_initialisation(envisat_fmu, tmp_path):
     """Our FMU refuses fmi2SetReal on a state in step mode, as the standard requires.
 
-    A mapping that tries to correct the state that way fails with the FMU's status.
+    A mapping that would correct the state that way is refused before the FMU is even loaded: its
+    corrections are outputs, not inputs.
     """
+    from fmpy import extract, read_model_description
+
+    from postcapture.fmi.slave import Buffer, RawSlave
+
     mapping = Mapping.from_toml(envisat_fmu.mapping_path)
-    naive = Mapping.from_dict(
-        {**mapping.to_dict(), "correction": {"inputs": list(mapping.state), "reset": "reset"}}
-    )
-    with FMUProcessModel(envisat_fmu.path, mapping=naive) as model:
+    with pytest.raises(FMIError, match="also in state.variables: a variable plays one role only"):
+        Mapping.from_dict({**mapping.to_dict(), "correction": {"inputs": list(mapping.state), "reset": "reset"}})
+    md = read_model_description(str(envisat_fmu.path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    slave = RawSlave(md, extract(str(envisat_fmu.path), str(tmp_path / "x")), str(envisat_fmu.path))
+    try:
         with pytest.raises(FMIError, match="fmi2SetReal returned Error") as err:
-            model.predict(model.initial_state(), 0.0, 0.1)
-    assert err.value.status == "Error"
+            slave.set_real(Buffer([vr[mapping.state[0]]]))
+        assert err.value.status == "Error"
+    finally:
+        slave.close()
 
 
 def test_out_of_range_mass_and_bad_shapes(envisat_fmu):

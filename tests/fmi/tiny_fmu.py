@@ -329,7 +329,7 @@ _FMI3_DONE = {
 }
 
 
-def _xml3() -> str:
+def _xml3(interface: str = "CoSimulation", flags: str = "") -> str:
     start = [1, 0, 0, 0, 0.3, 0.0, 0.5]
     rows = ['<Float64 name="time" valueReference="100" causality="independent" variability="continuous"/>']
     for i, name in enumerate(_NAMES):
@@ -349,19 +349,23 @@ def _xml3() -> str:
     init = "".join(f'<InitialUnknown valueReference="{i}"/>' for i in range(7, 10))
     return (
         f'<?xml version="1.0" encoding="UTF-8"?>\n<fmiModelDescription fmiVersion="3.0" modelName="tiny3" '
-        f'instantiationToken="{GUID}"><CoSimulation modelIdentifier="tiny3" canGetAndSetFMUState="true" '
-        f'canHandleVariableCommunicationStepSize="true"/><ModelVariables>{"".join(rows)}</ModelVariables>'
+        f'instantiationToken="{GUID}"><{interface} modelIdentifier="tiny3" canGetAndSetFMUState="true" '
+        f'canHandleVariableCommunicationStepSize="true"{flags}/><ModelVariables>{"".join(rows)}</ModelVariables>'
         f"<ModelStructure>{outputs}{init}</ModelStructure></fmiModelDescription>\n"
     )
 
 
-def build_tiny_fmu3(directory: Path) -> Path:
-    """Compile and zip the FMI 3.0 variant; writes ``tiny3.fmu`` and ``tiny3.toml``."""
+def build_tiny_fmu3(directory: Path, *, interface: str = "CoSimulation", flags: str = "", name: str = "tiny3") -> Path:
+    """Compile and zip the FMI 3.0 variant; writes ``<name>.fmu`` and ``<name>.toml``.
+
+    ``interface`` is the interface element (``CoSimulation`` or ``ScheduledExecution``), ``flags`` extra
+    attributes on it (e.g. ``' providesDirectionalDerivatives="true"'``).
+    """
     from fmpy import platform_tuple
     from fmpy.fmi3 import FMU3Slave
 
     directory = Path(directory)
-    root = directory / "tiny3"
+    root = directory / name
     if root.exists():
         shutil.rmtree(root)
     (root / "sources").mkdir(parents=True)
@@ -390,8 +394,8 @@ def build_tiny_fmu3(directory: Path) -> Path:
         ],
         check=True,
     )
-    (root / "modelDescription.xml").write_text(_xml3())
-    out = directory / "tiny3.fmu"
+    (root / "modelDescription.xml").write_text(_xml3(interface, flags))
+    out = directory / f"{name}.fmu"
     with zipfile.ZipFile(out, "w") as zf:
         for p in sorted(root.rglob("*")):
             if p.is_file():

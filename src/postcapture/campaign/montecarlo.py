@@ -40,7 +40,7 @@ from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
 from postcapture.core.consistency import chi2_bounds
 from postcapture.core.errors import MissingExtraError, Problem, ScenarioError
-from postcapture.dynamics.trajectory import write_atomic
+from postcapture.io import write_atomic
 from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, target_properties, truth_vector_names
 from postcapture.estimation.history import StepFlag
 
@@ -354,7 +354,8 @@ def _dask_client(scheduler: str | None, workers: int):
     try:
         if scheduler is None:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=":0", silence_logs=logging.ERROR)
+                                   dashboard_address=":0", silence_logs=logging.ERROR,
+                                   preload=["postcapture.campaign.pool"])  # workers leave Ctrl-C to us
             client = Client(cluster)
         else:
             try:

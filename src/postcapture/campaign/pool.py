@@ -6,31 +6,81 @@ importable at module level (they are pickled to the workers).
 
 Progress from the workers travels back on a multiprocessing queue, handed to each worker when it
 starts; this process reads it while it waits for the results and passes ``(label, fraction)`` on.
+
+Process handling:
+
+* each worker has a top-level handler (:func:`_call`): errors a user can cause (postcapture's own,
+  ``OSError``, ``MemoryError``) reach the parent as raised; anything else is a bug and comes back as a
+  :class:`~postcapture.core.errors.WorkerError` carrying the worker's traceback as text;
+* workers ignore SIGINT: a Ctrl-C in a terminal (sent to the whole process group) is handled by the
+  parent alone, which stops the workers at once (terminate, then kill) and re-raises
+  ``KeyboardInterrupt``; no worker prints a traceback and the parent does not wait for running jobs.
+  The first failure of a job stops the others the same way.
 """
 
 from __future__ import annotations
 
+import logging
 import multiprocessing
 import queue as queue_module
+import signal
+import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-__all__ = ["run_jobs"]
+from postcapture.core.errors import PostcaptureError, WorkerError
+
+__all__ = ["run_jobs", "worker_signals", "dask_setup"]
+
+logger = logging.getLogger(__name__)
 
 _progress_queue = None  # in a worker: where its jobs' progress goes (set by _init_worker)
 
 POLL_S = 0.1
 """How often this process reads the workers' progress while it waits (s)."""
 
+_STOP_WAIT_S = 2.0  # how long terminated workers get to exit before they are killed
+
+
+def worker_signals() -> None:
+    """Signal dispositions of a worker process: SIGINT ignored (the parent handles it), SIGTERM default.
+
+    A forked worker inherits the parent's handlers; the CLI's SIGTERM handler raises in Python, which in
+    a worker would print a traceback when the parent stops it.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def dask_setup(worker) -> None:
+    """Dask's preload hook: a worker of a local cluster (``preload=["postcapture.campaign.pool"]``) leaves
+    Ctrl-C to the parent, as the case pool's workers do (no KeyboardInterrupt traceback from each).
+
+    Its own Dask logging is kept to critical messages: a task's error reaches the parent with the task,
+    and what a worker logs while the parent stops the cluster (heartbeats to a scheduler already gone,
+    with their tracebacks) is noise on the terminal.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+
 
 def _init_worker(progress_queue) -> None:
     global _progress_queue
+    worker_signals()
     _progress_queue = progress_queue
 
 
 def _call(fn, payload, label):
+    """A job in a worker, under the top-level handler of the module text."""
     q = _progress_queue
-    return fn(payload, None if q is None else (lambda fraction: q.put((label, float(fraction)))))
+    try:
+        return fn(payload, None if q is None else (lambda fraction: q.put((label, float(fraction)))))
+    except (PostcaptureError, OSError, MemoryError):
+        raise
+    except Exception as exc:  # a bug: its traceback exists only here, so it travels as text
+        case = payload.get("case") if isinstance(payload, dict) else None
+        raise WorkerError(f"{fn.__name__}({case or label})", type(exc).__name__, str(exc),
+                          traceback.format_exc()) from None
 
 
 def _drain(progress_queue, on_progress) -> None:
@@ -44,6 +94,20 @@ def _drain(progress_queue, on_progress) -> None:
 
 def _labelled(jobs) -> list[tuple[Callable, dict, str]]:
     return [(job[0], job[1], str(job[2]) if len(job) > 2 else str(i)) for i, job in enumerate(jobs)]
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Stop every worker now: cancel queued jobs, terminate running ones, kill the stubborn."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # no public handle before Python 3.14
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in processes:
+        proc.join(_STOP_WAIT_S)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(_STOP_WAIT_S)
 
 
 def run_jobs(
@@ -66,6 +130,14 @@ def run_jobs(
         Called as each job finishes, in the order they finish.
     on_progress : callable(label, fraction), optional
         Called, in this process, with the fractions each job reports.
+
+    Raises
+    ------
+    WorkerError
+        When a job fails with an unexpected error (a bug) in a worker. On any failure the other
+        workers are stopped at once.
+    KeyboardInterrupt
+        On Ctrl-C, after every worker has been stopped.
     """
     labelled = _labelled(jobs)
     total = len(labelled)
@@ -74,8 +146,9 @@ def run_jobs(
         ctx = (multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods()
                else multiprocessing.get_context())
         progress_queue = ctx.Queue() if on_progress is not None else None
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
-                                 initargs=(progress_queue,)) as pool:
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                                   initargs=(progress_queue,))
+        try:
             futures = {pool.submit(_call, fn, payload, label): i for i, (fn, payload, label) in enumerate(labelled)}
             pending = set(futures)
             done_count = 0
@@ -84,12 +157,17 @@ def run_jobs(
                 if progress_queue is not None:
                     _drain(progress_queue, on_progress)
                 for fut in sorted(finished, key=futures.get):
-                    results[futures[fut]] = fut.result()
+                    results[futures[fut]] = fut.result()  # a failure is seen as soon as it happens
                     done_count += 1
                     if on_done is not None:
                         on_done(results[futures[fut]][0], done_count, total)
-        if progress_queue is not None:
-            progress_queue.close()
+        except BaseException:
+            _stop(pool)
+            raise
+        finally:
+            if progress_queue is not None:
+                progress_queue.close()
+        pool.shutdown(wait=True)
     else:
         for i, (fn, payload, label) in enumerate(labelled):
             report = None if on_progress is None else (lambda fraction, label=label: on_progress(label, fraction))

@@ -1,4 +1,9 @@
-"""Writing the main job's results: a self-describing NetCDF file, the JSON summary, the table, figures."""
+"""Writing the main job's results: a self-describing NetCDF file, the JSON summary, the table, figures.
+
+They are written as one set (:class:`postcapture.io.ResultSet`): a reader of the folder sees the previous
+complete set or the new complete set, never a mix, and a failure (full disk, Ctrl-C, a kill) leaves
+the previous set as it was.
+"""
 
 from __future__ import annotations
 
@@ -9,9 +14,16 @@ import numpy as np
 
 from postcapture.campaign.cases import CASES
 from postcapture.core import rotations as rot
-from postcapture.dynamics.trajectory import write_atomic
+from postcapture.io import ResultSet
 
-__all__ = ["to_dataset", "write_results", "write_campaign"]
+__all__ = ["RUN_FILES", "CAMPAIGN_FILES", "to_dataset", "write_results", "write_campaign"]
+
+RUN_FILES = ("results.nc", "summary.json", "table.txt", "attitude_estimates.png", "attitude_error_*.png",
+             "mass_estimates.png", "mass_error.png", "fig*.png")
+"""Names a results folder of the main job holds (``fig*.png``: the figures of earlier versions); other
+entries of the folder are kept as they are."""
+CAMPAIGN_FILES = ("campaign.nc", "summary.json", "table.txt", "campaign_*.png")
+"""Names a results folder of a campaign holds."""
 
 
 def to_dataset(result):
@@ -90,47 +102,51 @@ def _divergence_time(history) -> float:
 
 
 def write_results(result, out_dir, figures: bool = True) -> dict:
-    """Write ``results.nc``, ``summary.json``, ``table.txt`` and the figures into ``out_dir``.
+    """Write ``results.nc``, ``summary.json``, ``table.txt`` and the figures into ``out_dir``, as one set.
 
-    Every file is written to a temporary name and renamed, so an interrupted run never leaves a
-    truncated file over an earlier result. Returns the paths written.
+    The files are written into a temporary folder beside ``out_dir``, which then replaces it in one
+    step; entries of ``out_dir`` that are not results of the main job are carried over. Returns the
+    paths written.
+
+    Raises
+    ------
+    OutputPathError
+        When ``out_dir`` is not a folder, cannot be written, or a file cannot be written (disk full);
+        the previous results are then left as they were.
     """
     from postcapture.report.figures import main_job_figures
     from postcapture.report.style import DPI
     from postcapture.report.table import results_table
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     summary = result.summary()
     paths = {}
-    paths["summary"] = write_atomic(out / "summary.json",
+    with ResultSet(out_dir, owned=RUN_FILES, kind="postcapture run") as rs:
+        paths["summary"] = rs.write("summary.json",
                                     lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2, default=float)))
-    paths["table"] = write_atomic(out / "table.txt", lambda tmp: Path(tmp).write_text(results_table(summary) + "\n"))
-    ds = to_dataset(result)
-    paths["results"] = write_atomic(out / "results.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
-    if not figures:
-        return paths
-    figs = main_job_figures(ds)
-    for stem, fig in figs.items():
-        paths[stem] = write_atomic(out / f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=DPI))
+        paths["table"] = rs.write("table.txt", lambda tmp: Path(tmp).write_text(results_table(summary) + "\n"))
+        ds = to_dataset(result)
+        paths["results"] = rs.write("results.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
+        if figures:
+            for stem, fig in main_job_figures(ds).items():
+                paths[stem] = rs.write(f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=DPI))
     return paths
 
 
 def write_campaign(result, out_dir, figures: bool = True) -> dict:
-    """Write a campaign's ``campaign.nc``, ``summary.json``, ``table.txt`` and figures into ``out_dir``."""
+    """Write a campaign's ``campaign.nc``, ``summary.json``, ``table.txt`` and figures into ``out_dir``, as one
+    set (see :func:`write_results`)."""
     from postcapture.report.campaign import campaign_figures, campaign_table
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     summary = result.summary()
-    paths = {
-        "summary": write_atomic(out / "summary.json",
+    with ResultSet(out_dir, owned=CAMPAIGN_FILES, kind="postcapture campaign") as rs:
+        paths = {
+            "summary": rs.write("summary.json",
                                 lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2, default=float))),
-        "table": write_atomic(out / "table.txt", lambda tmp: Path(tmp).write_text(campaign_table(summary) + "\n")),
-    }
-    ds = result.to_xarray()
-    paths["results"] = write_atomic(out / "campaign.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
-    if figures:
-        for stem, fig in campaign_figures(ds, summary).items():
-            paths[stem] = write_atomic(out / f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
+            "table": rs.write("table.txt", lambda tmp: Path(tmp).write_text(campaign_table(summary) + "\n")),
+        }
+        ds = result.to_xarray()
+        paths["results"] = rs.write("campaign.nc", lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
+        if figures:
+            for stem, fig in campaign_figures(ds, summary).items():
+                paths[stem] = rs.write(f"{stem}.png", lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
     return paths

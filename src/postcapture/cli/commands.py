@@ -10,6 +10,7 @@ import json
 import sys
 import textwrap
 
+from postcapture.cli import checks
 from postcapture.cli.progress import MAX_COLUMNS, ProgressDisplay
 from postcapture.core.errors import Problem, ScenarioError
 
@@ -59,11 +60,12 @@ def _written(folder, names) -> str:
 
 
 def cmd_simulate(args) -> int:
+    checks.simulate(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.dynamics.simulate import drift_metrics, simulate
 
     scenario = load_scenario(args.scenario)
-    out = args.out or f"results/simulate_{scenario.name}_{args.variant}.nc"
+    out = args.out or checks.default_simulate_out(scenario, args.variant)
     with _display(args, "simulate") as shown:
         shown.phase(f"{scenario.name}, {args.variant} model")
         traj = simulate(
@@ -124,6 +126,7 @@ def _fmu_cases(cases):
 
 
 def cmd_run(args) -> int:
+    checks.run(args)  # everything given, checked before any work
     from postcapture.campaign.cases import DEFAULT_CASES
     from postcapture.campaign.main_job import run_main_job
     from postcapture.campaign.results import write_results
@@ -192,6 +195,7 @@ def _truth(args, scenario):
 
 
 def cmd_campaign(args) -> int:
+    checks.campaign(args)  # everything given, checked before any work
     from postcapture.campaign.montecarlo import run_campaign
     from postcapture.campaign.results import write_campaign
     from postcapture.config import load_scenario
@@ -228,6 +232,7 @@ def cmd_campaign(args) -> int:
 
 
 def cmd_fmu_export(args) -> int:
+    checks.fmu_export(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.fmi import export_fmu
 
@@ -255,6 +260,7 @@ def cmd_fmu_export(args) -> int:
 
 
 def cmd_fmu_info(args) -> int:
+    checks.fmu_info(args)  # everything given, checked before any work
     from postcapture.fmi import fmu_info, format_fmu_info
 
     info = fmu_info(args.fmu, mapping=args.map)
@@ -266,6 +272,7 @@ def cmd_fmu_info(args) -> int:
 
 
 def cmd_modes(args) -> int:
+    checks.modes(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.dynamics.build import build_system
     from postcapture.dynamics.modes import structural_modes
@@ -301,6 +308,7 @@ def cmd_modes(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    checks.bench(args)  # everything given, checked before any work
     if args.accuracy:
         return cmd_accuracy(args)
     from postcapture.campaign.bench import run_benchmark
@@ -344,6 +352,7 @@ def cmd_accuracy(args) -> int:
 
 
 def cmd_panel_calibrate(args) -> int:
+    checks.panel_calibrate(args)  # everything given, checked before any work
     from postcapture.panels import calibrate
     from postcapture.report.panels import calibration_figures
 
@@ -356,7 +365,7 @@ def cmd_panel_calibrate(args) -> int:
         shown.phase(f"panel {args.panel}, {args.segments} segments")
         shown.task("calibration", 0.0)
         result = calibrate(args.panel, segments=args.segments, weights=args.weights, reference=args.reference,
-                           progress=progress)
+                           force_reference=args.force_reference, progress=progress)
         if args.out:
             shown.phase("writing tables, JSON, TOML and figures")
             result.write(args.out, figures=calibration_figures)

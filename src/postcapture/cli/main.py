@@ -1,6 +1,9 @@
 """The ``postcapture`` command line: parse, call one library function, print.
 
-User errors (bad scenario, missing file, bad option) print one message on stderr and exit with 1.
+Exit status: 0 success; 1 a user error (bad scenario, missing file, bad option, a resource limit): one
+message on stderr, no traceback; 2 an internal error (a bug): a short report and a hint to run again
+with ``-v``, which prints the traceback; 130 interrupted by Ctrl-C (SIGINT), 143 stopped by SIGTERM: one
+line. Every command checks everything it was given before any work starts (:mod:`postcapture.cli.checks`).
 """
 
 from __future__ import annotations
@@ -8,7 +11,10 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
+import threading
+import traceback
 
 from postcapture.cli import commands
 
@@ -86,11 +92,13 @@ def _nonnegative_int(text: str) -> int:
 
 
 def _seed(text: str) -> int:
+    from postcapture.config.types import SEED_LIMIT
+
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a seed, an integer in [0, 2**63), found {text!r}") from None
-    if not 0 <= value < 2**63:
+    if not 0 <= value < SEED_LIMIT:
         raise argparse.ArgumentTypeError(f"expected a seed, an integer in [0, 2**63), found {text!r}")
     return value
 
@@ -139,7 +147,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--map", default=None, metavar="MAP.toml", help="mapping of the FMU's variables (default: its own)")
     p.add_argument("--initial-mass-error", type=float, default=None, metavar="KG",
                    help="added to the true mass to start the filters (default: scenario, -100 kg)")
-    p.add_argument("--seed", type=int, default=None, help="sensor-noise seed (default: scenario)")
+    p.add_argument("--seed", type=_seed, default=None, help="sensor-noise seed (default: scenario)")
     truth = p.add_mutually_exclusive_group()
     truth.add_argument("--truth-scenario", default=None, metavar="PATH",
                        help="simulate the truth from this scenario (same arm and panels); the filters keep --scenario")
@@ -203,6 +211,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--reference", default="fem", metavar="fem|OP2FILE",
                    help="the built-in plate FEM, or modes read from a Nastran OP2 file")
     c.add_argument("--out", default=None, metavar="DIR", help="write tables, JSON, a TOML fragment and figures here")
+    c.add_argument("--force-reference", action="store_true",
+                   help="use an OP2 reference even beyond the tolerance of the project's own FEM (mass, frequencies)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=commands.cmd_panel_calibrate)
 
@@ -234,25 +244,69 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` and ``with`` cleans up."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+def _report(exc: BaseException, verbose: bool) -> int:
+    """One message for an exception that reached the top level; the exit status."""
+    from postcapture.core.errors import PostcaptureError, WorkerError
+
+    if isinstance(exc, WorkerError):
+        print(f"postcapture: internal error: {exc}", file=sys.stderr)
+        if verbose:
+            print(exc.traceback, file=sys.stderr, end="")
+        else:
+            print("postcapture: this is a bug; run again with -v for the worker's traceback, and report it",
+                  file=sys.stderr)
+        return 2
+    if isinstance(exc, PostcaptureError):
+        print(f"postcapture: error: {exc}", file=sys.stderr)
+        return 1
+    if isinstance(exc, OSError):
+        text = f"{exc.filename}: {exc.strerror}" if exc.filename and exc.strerror else (exc.strerror or str(exc))
+        print(f"postcapture: error: {text}", file=sys.stderr)
+        return 1
+    if isinstance(exc, MemoryError):
+        print("postcapture: error: out of memory (lower the limit POSTCAPTURE_MAX_MEMORY so that such runs are "
+              "refused up front, or make the run smaller)", file=sys.stderr)
+        return 1
+    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    at = f" (at {os.path.basename(where.filename)}:{where.lineno})" if where else ""
+    print(f"postcapture: internal error: {type(exc).__name__}: {exc}{at}", file=sys.stderr)
+    if verbose:
+        traceback.print_exception(exc, file=sys.stderr)
+    else:
+        print("postcapture: this is a bug; run again with -v for the traceback, and report it", file=sys.stderr)
+    return 2
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``postcapture`` console script; returns the exit status."""
     _single_threaded()
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    from postcapture.core.errors import PostcaptureError
-
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return int(args.func(args) or 0)
-    except PostcaptureError as exc:
-        print(f"postcapture: error: {exc}", file=sys.stderr)
-        return 1
-    except OSError as exc:
-        print(f"postcapture: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("postcapture: interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print("postcapture: terminated", file=sys.stderr)
+        return 143
+    except Exception as exc:  # the top-level handler: one message, never a traceback unless -v
+        return _report(exc, args.verbose)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

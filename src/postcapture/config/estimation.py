@@ -13,7 +13,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
-from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, Vec3, problem
+from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, Seed, Vec3, problem
 
 __all__ = ["StarTrackerSpec", "GyroSpec", "AccelerometerSpec", "JointSensorSpec", "SensorProfileSpec", "FilterTuning",
            "Estimation"]
@@ -137,6 +137,6 @@ class Estimation(Frozen):
 
     initial_mass_error: float = -100.0
     filter_step: PositiveFloat = 0.1
-    seed: int = Field(default=0, ge=0)
+    seed: Seed = 0
     sensors: dict[str, SensorProfileSpec] = Field(default_factory=dict)
     tuning: dict[str, FilterTuning] = Field(default_factory=dict)

@@ -11,6 +11,7 @@ evaluates the same formulas in C (``dynamics/csrc/pc_dynamics.c``), from the con
 
 from __future__ import annotations
 
+import re
 from typing import Annotated, Literal, Union
 
 import numpy as np
@@ -21,16 +22,22 @@ from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, pr
 __all__ = ["Step", "Sine", "Chirp", "Table", "Excitation", "CHASER_CHANNELS", "channel_index"]
 
 CHASER_CHANNELS = ("force_x", "force_y", "force_z", "torque_x", "torque_y", "torque_z")
+_JOINT = re.compile(r"joint_([1-9][0-9]*)", re.ASCII)  # ASCII digits only: int() would read any Unicode digit
+
+
+def _joint_number(channel: str) -> int | None:
+    """``k`` of a channel named ``joint_<k>`` (k >= 1 in ASCII digits), else None."""
+    m = _JOINT.fullmatch(channel)
+    return int(m.group(1)) if m else None
 
 
 def channel_index(channel: str, n_arm: int) -> int:
     """Index of a named channel in the input vector ``u`` (length ``6 + n_arm``)."""
     if channel in CHASER_CHANNELS:
         return CHASER_CHANNELS.index(channel)
-    if channel.startswith("joint_"):
-        k = int(channel[6:])
-        if 1 <= k <= n_arm:
-            return 5 + k
+    k = _joint_number(channel)
+    if k is not None and k <= n_arm:
+        return 5 + k
     raise ValueError(f"unknown channel {channel!r}")
 
 
@@ -43,10 +50,7 @@ class _Window(Frozen):
     def _window(self):
         if self.stop is not None and self.stop <= self.start:
             raise problem(f"stop > start = {self.start}", self.stop)
-        ok = self.channel in CHASER_CHANNELS or (
-            self.channel.startswith("joint_") and self.channel[6:].isdigit() and int(self.channel[6:]) >= 1
-        )
-        if not ok:
+        if self.channel not in CHASER_CHANNELS and _joint_number(self.channel) is None:
             raise problem("a channel among force_x|y|z, torque_x|y|z, joint_<k>", repr(self.channel))
         return self
 

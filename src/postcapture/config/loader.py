@@ -1,4 +1,8 @@
-"""Load a scenario from a built-in name or a TOML file, reporting every problem at once."""
+"""Load a scenario from a built-in name or a TOML file, reporting every problem at once.
+
+Whatever the file holds (any bytes, any nesting, any number), :func:`load_scenario` raises nothing but
+:class:`~postcapture.core.errors.ScenarioError`.
+"""
 
 from __future__ import annotations
 
@@ -13,7 +17,10 @@ from postcapture.config.faults import FAULT_KINDS
 from postcapture.config.schema import Scenario
 from postcapture.core.errors import Problem, ScenarioError
 
-__all__ = ["builtin_scenarios", "load_scenario", "scenario_from_dict", "problems_from_validation"]
+__all__ = ["MAX_FILE_BYTES", "builtin_scenarios", "load_scenario", "scenario_from_dict", "problems_from_validation"]
+
+MAX_FILE_BYTES = 16 * 2**20
+"""Largest scenario file read (bytes); a scenario is a few kilobytes."""
 
 
 def builtin_scenarios() -> list[str]:
@@ -52,14 +59,24 @@ def _expected(err: dict) -> str:
         return "a known key (this one is not part of the schema)"
     if kind in ("finite_number",):
         return "a finite number"
-    if kind in ("float_parsing", "float_type", "int_parsing", "int_type"):
+    if kind in ("float_parsing", "float_type"):
         return "a number"
+    if kind in ("int_parsing", "int_type", "int_from_float"):
+        return "an integer"
+    if kind in ("bool_parsing", "bool_type"):
+        return "true or false"
+    if kind in ("string_type",):
+        return "a string"
+    if kind in ("dict_type", "model_type", "model_attributes_type"):
+        return "a table"
     if kind == "greater_than":
         return f"a number > {ctx.get('gt')}"
     if kind == "greater_than_equal":
         return f"a number >= {ctx.get('ge')}"
     if kind == "less_than_equal":
         return f"a number <= {ctx.get('le')}"
+    if kind == "less_than":
+        return f"a number < {ctx.get('lt')}"
     if kind in ("too_short", "too_long", "tuple_type"):
         return err["msg"].replace("Tuple should have", "").replace("Input should be", "").strip() or err["msg"]
     if kind == "literal_error":
@@ -80,7 +97,12 @@ def _found(err: dict) -> str:
     if err["type"] == "extra_forbidden":
         return repr(err["loc"][-1]) if err["loc"] else repr(err.get("input"))
     value = err.get("input")
-    text = repr(value)
+    if isinstance(value, bool):  # as TOML spells it, and say why it is refused where numbers are due
+        return f"{str(value).lower()} (a boolean)"
+    try:
+        text = repr(value)
+    except RecursionError:
+        text = f"a deeply nested {type(value).__name__}"
     return text if len(text) < 80 else text[:77] + "..."
 
 
@@ -98,10 +120,15 @@ def scenario_from_dict(data: dict[str, Any], source: str | None = None) -> Scena
     ScenarioError
         With every problem found (field path, expected, found).
     """
+    if not isinstance(data, dict):
+        raise ScenarioError([Problem("(scenario)", "a table of sections", type(data).__name__)], source)
     try:
         return Scenario.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(problems_from_validation(exc), source) from None
+    except (RecursionError, ArithmeticError) as exc:  # a validator's arithmetic on an extreme number
+        raise ScenarioError([Problem("(scenario)", "numbers and nesting a scenario can hold",
+                                     f"{type(exc).__name__}: {exc}")], source) from None
 
 
 def load_scenario(name_or_path: str | Path = "envisat") -> Scenario:
@@ -120,19 +147,31 @@ def load_scenario(name_or_path: str | Path = "envisat") -> Scenario:
     else:
         path = Path(text)
         source = str(path)
-        if not path.is_file():
+        try:
+            is_file = path.is_file()
+        except (OSError, ValueError):  # a name too long for the system, a NUL byte
+            is_file = False
+        if not is_file:
             looks_like_name = path.suffix == "" and "/" not in text
-            what = "unknown scenario name" if looks_like_name else "no such file"
+            what = "unknown scenario name" if looks_like_name else ("not a file" if path.exists() else "no such file")
             raise ScenarioError(
                 [Problem("scenario", f"a built-in name ({', '.join(builtins)}) or an existing TOML file", f"{what} {text!r}")],
                 source,
             )
         try:
-            raw = path.read_text(encoding="utf-8")
+            size = path.stat().st_size
+            if size > MAX_FILE_BYTES:
+                raise ScenarioError([Problem("scenario", f"a TOML file under {MAX_FILE_BYTES // 2**20} MiB",
+                                             f"{size} bytes")], source)
+            raw = path.read_bytes().decode("utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise ScenarioError([Problem("scenario", "a readable UTF-8 TOML file", str(exc))], source) from None
+    raw = raw.removeprefix("\ufeff")  # a UTF-8 byte order mark, as some editors write
     try:
         data = tomllib.loads(raw)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError([Problem("scenario", "valid TOML", str(exc))], source) from None
+    except RecursionError:
+        raise ScenarioError([Problem("scenario", "TOML nested a few levels deep", "nesting too deep to parse")],
+                            source) from None
     return scenario_from_dict(data, source)

@@ -28,6 +28,7 @@ from postcapture.config.types import (
     check_inertia,
     problem,
 )
+from postcapture.core.errors import Problem, ScenarioError
 from typing import Annotated
 
 __all__ = [
@@ -42,11 +43,14 @@ __all__ = [
     "Scenario",
     "INTEGRATORS",
     "VARIANTS",
+    "MAX_SEGMENTS",
 ]
 
 INTEGRATORS = ("sdirk4", "sdirk3", "sdirk2", "rk4")
 ARCSEC = 4.84813681109536e-06  # rad
 VARIANTS = ("flexible", "stiff", "rigid")
+MAX_SEGMENTS = 1000
+"""Most segments a panel may be cut into (scenario files and :meth:`Panel.with_segments` alike)."""
 Inertia = Annotated[Mat3, check_inertia]
 
 
@@ -63,7 +67,7 @@ class Panel(Frozen):
     length: PositiveFloat
     width: PositiveFloat
     mass: PositiveFloat
-    segments: int = Field(ge=1, le=1000)
+    segments: int = Field(ge=1, le=MAX_SEGMENTS)
     bending_stiffness: tuple[PositiveFloat, ...]
     torsion_stiffness: PositiveFloat
     damping_beta: NonNegativeFloat = 0.0  # stiffness-proportional damping d = beta k (s)
@@ -77,9 +81,19 @@ class Panel(Frozen):
         return self
 
     def with_segments(self, n: int) -> "Panel":
-        """The same panel cut into ``n`` segments, stiffnesses derived from EI(s)."""
-        k = refine_stiffness(self.bending_stiffness, self.length, n)
-        return self.model_copy(update={"segments": int(n), "bending_stiffness": tuple(float(x) for x in k)})
+        """The same panel cut into ``n`` segments, stiffnesses derived from EI(s) (validated copy).
+
+        Raises
+        ------
+        ScenarioError
+            If ``n`` is not an integer in ``[1, MAX_SEGMENTS]`` (checked before anything is allocated).
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_SEGMENTS:
+            raise ScenarioError([Problem(f"{self.name}.segments", f"an integer in [1, {MAX_SEGMENTS}]", repr(n))])
+        k = refine_stiffness(self.bending_stiffness, self.length, int(n))
+        data = self.model_dump()
+        data.update(segments=int(n), bending_stiffness=tuple(float(x) for x in k))
+        return Panel.model_validate(data)
 
 
 class _Body(Frozen):
@@ -184,7 +198,7 @@ class Simulation(Frozen):
     @model_validator(mode="after")
     def _grid(self):
         ratio = self.sample_period / self.step
-        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        if not np.isfinite(ratio) or abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise problem(f"sample_period a whole multiple of step = {self.step}", self.sample_period)
         return self
 
@@ -264,14 +278,18 @@ class Scenario(Frozen):
         return out
 
     def with_panel_segments(self, n: int) -> "Scenario":
-        """The same scenario with every panel cut into ``n`` segments."""
-        chaser = self.chaser.model_copy(update={"panels": tuple(p.with_segments(n) for p in self.chaser.panels)})
-        update = {"chaser": chaser}
+        """The same scenario with every panel cut into ``n`` segments (a validated copy).
+
+        Raises
+        ------
+        ScenarioError
+            If ``n`` is not an integer in ``[1, MAX_SEGMENTS]``.
+        """
+        data = self.model_dump()
+        data["chaser"]["panels"] = tuple(p.with_segments(n).model_dump() for p in self.chaser.panels)
         if self.target is not None:
-            update["target"] = self.target.model_copy(
-                update={"panels": tuple(p.with_segments(n) for p in self.target.panels)}
-            )
-        return self.model_copy(update=update)
+            data["target"]["panels"] = tuple(p.with_segments(n).model_dump() for p in self.target.panels)
+        return Scenario.model_validate(data)
 
     def with_updates(self, **sections) -> "Scenario":
         """A validated copy with whole sections replaced, e.g. ``simulation=...``."""

@@ -3,6 +3,11 @@
 Every validator raises :class:`pydantic_core.PydanticCustomError` with ``expected`` and ``found`` in
 its context, so that :mod:`postcapture.config.loader` can report each problem as
 ``path: expected ..., found ...``.
+
+Types are strict: a boolean is not a number (``mass = true`` is an error, not 1.0), a string is not a
+number (``"1.5"``), a fractional number is not an integer (``segments = 5.0``) and a number is not a
+boolean. Integers are accepted where a real number is expected. TOML arrays (Python lists) are
+accepted where the schema has tuples.
 """
 
 from __future__ import annotations
@@ -10,11 +15,13 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 __all__ = [
     "Frozen",
+    "SEED_LIMIT",
+    "Seed",
     "Vec3",
     "Mat3",
     "PositiveFloat",
@@ -39,12 +46,44 @@ def problem(expected: str, found: object, path: str | None = None) -> PydanticCu
     return PydanticCustomError("scenario", "expected {expected}, found {found}", ctx)
 
 
+_MAX_ARRAY_DEPTH = 8  # deeper arrays than any field has are left as lists: the type check reports them
+
+
+def _as_tuples(value, depth: int = 0):
+    """TOML arrays (lists) as tuples, nested ones too (tables inside are left to their own model).
+
+    From Python, numpy arrays and scalars are taken as the Python values they hold (``np.int64(4)`` is
+    an integer, ``np.bool_(True)`` a boolean, and so still not a number).
+    """
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    elif isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, list | tuple) and depth < _MAX_ARRAY_DEPTH:
+        return tuple(_as_tuples(v, depth + 1) for v in value)
+    return value
+
+
 class Frozen(BaseModel):
-    """Base of every scenario object: immutable, no unknown keys, finite numbers only."""
+    """Base of every scenario object: immutable, no unknown keys, finite numbers only, strict types.
 
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, validate_default=True)
+    Strict mode refuses the lax conversions (bool to number, string to number, float to int, number
+    to bool); tuples would then refuse lists, so lists become tuples before validation.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False, validate_default=True, strict=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _arrays_as_tuples(cls, data):
+        if isinstance(data, dict):
+            return {k: _as_tuples(v) for k, v in data.items()}
+        return data
 
 
+SEED_LIMIT = 2**63
+"""Seeds are integers in ``[0, SEED_LIMIT)``: they are written into the results files as int64."""
+Seed = Annotated[int, Field(ge=0, lt=SEED_LIMIT)]
 PositiveFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 Vec3 = tuple[float, float, float]
@@ -54,7 +93,10 @@ AxisName = Literal["x", "y", "z"]
 
 def _check_inertia(value: Mat3) -> Mat3:
     I = np.array(value, dtype=float)
-    if not np.allclose(I, I.T, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(I).max())):
+    scale = float(np.abs(I).max())
+    if not scale < 1e150:  # beyond it the eigenvalues overflow; no body is that heavy
+        raise problem("inertia entries below 1e150 kg m^2", f"an entry of {scale:.6g}")
+    if not np.allclose(I, I.T, rtol=1e-9, atol=1e-9 * max(1.0, scale)):
         raise problem("a symmetric 3x3 inertia tensor", f"I - I^T with max |entry| {np.abs(I - I.T).max():.3g}")
     eig = np.linalg.eigvalsh(I)
     if eig[0] <= 0.0:

@@ -1,7 +1,8 @@
 """Exception types shared by every layer.
 
 They subclass the matching builtin so that ``except ValueError`` keeps working for callers that do
-not know postcapture's own types.
+not know postcapture's own types. Every one of them survives pickling unchanged (type, message and
+attributes), so an error raised in a worker process reaches the parent as raised.
 """
 
 from __future__ import annotations
@@ -12,6 +13,10 @@ __all__ = [
     "PostcaptureError",
     "Problem",
     "ScenarioError",
+    "InputError",
+    "ResourceLimitError",
+    "OutputPathError",
+    "WorkerError",
     "DimensionError",
     "DomainError",
     "CovarianceError",
@@ -26,8 +31,22 @@ __all__ = [
 ]
 
 
+def _rebuild(cls, args, state):
+    """Unpickle a postcapture error without calling its ``__init__`` (whose signature varies)."""
+    exc = cls.__new__(cls, *args)
+    exc.args = args
+    exc.__dict__.update(state)
+    return exc
+
+
 class PostcaptureError(Exception):
     """Base class of every error raised on purpose by postcapture."""
+
+    def __reduce__(self):
+        # The default pickles ``self.args`` and calls ``cls(*args)`` on load, which breaks every subclass
+        # whose ``__init__`` takes other arguments than its message (a ScenarioError came back with
+        # one "problem" per character, a FilterDivergenceError did not come back at all).
+        return (_rebuild, (type(self), self.args, dict(self.__dict__)))
 
 
 @dataclass(frozen=True)
@@ -53,14 +72,91 @@ class ScenarioError(PostcaptureError, ValueError):
         The file or name the description came from.
     """
 
+    _what = "invalid scenario"  # the head of the message; subclasses name what they validate
+
+    def _head(self, source: str | None) -> str:
+        return f"{self._what} {source!r}" if source else self._what
+
     def __init__(self, problems: list[Problem], source: str | None = None):
         self.problems = list(problems)
         self.source = source
-        head = f"invalid scenario {source!r}" if source else "invalid scenario"
+        head = self._head(source)
         n = len(self.problems)
         lines = [f"{head}: {n} problem{'s' if n != 1 else ''}"]
         lines += [f"  - {p}" for p in self.problems]
         super().__init__("\n".join(lines))
+
+
+class InputError(ScenarioError):
+    """What a command was given (options, paths, files, scenario) failed validation.
+
+    A `ScenarioError` (and so a ``ValueError``) whose message starts with "invalid input": it carries
+    every `Problem` found by one validation pass, with the option or field each one concerns.
+
+    Parameters
+    ----------
+    problems : list of Problem
+        Every problem found.
+    source : str, optional
+        What was validated (a command name, a file).
+    """
+
+    _what = "invalid input"
+
+    def _head(self, source: str | None) -> str:
+        return f"invalid input to {source}" if source else self._what
+
+
+class ResourceLimitError(PostcaptureError, ValueError):
+    """A run would need more memory or time than allowed; refused before anything is allocated.
+
+    Attributes
+    ----------
+    limit : str
+        The limit's name (``"memory"``, ``"time"``).
+    needed, allowed : float
+        The estimate and the limit (bytes or seconds).
+    """
+
+    def __init__(self, message: str, limit: str = "", needed: float = float("nan"), allowed: float = float("nan")):
+        self.limit = limit
+        self.needed = needed
+        self.allowed = allowed
+        super().__init__(message)
+
+
+class OutputPathError(PostcaptureError, OSError):
+    """An output path cannot be written: not a regular file or folder, not writable, or a failed write.
+
+    Constructed like ``OSError(errno, message, filename)``; ``str()`` reads ``filename: message``.
+    """
+
+    __reduce__ = OSError.__reduce__  # keeps errno, message and filename (its __init__ is OSError's)
+
+    def __str__(self) -> str:
+        if self.strerror is not None:
+            return f"{self.filename}: {self.strerror}" if self.filename else self.strerror
+        return super().__str__()
+
+
+class WorkerError(PostcaptureError, RuntimeError):
+    """An unexpected error (a bug) inside a worker process, carried back with its traceback text.
+
+    Attributes
+    ----------
+    job : str
+        The job that failed.
+    kind : str
+        The original exception's type name.
+    traceback : str
+        The worker's formatted traceback.
+    """
+
+    def __init__(self, job: str, kind: str, message: str, traceback: str = ""):
+        self.job = job
+        self.kind = kind
+        self.traceback = traceback
+        super().__init__(f"internal error in worker job {job!r}: {kind}: {message}")
 
 
 class DimensionError(PostcaptureError, ValueError):
@@ -145,13 +241,7 @@ class PanelModelError(ScenarioError):
         The file or name the description came from.
     """
 
-    def __init__(self, problems: list[Problem], source: str | None = None):
-        super().__init__(problems, source)
-        head = f"invalid panel model {source!r}" if source else "invalid panel model"
-        n = len(self.problems)
-        lines = [f"{head}: {n} problem{'s' if n != 1 else ''}"]
-        lines += [f"  - {p}" for p in self.problems]
-        self.args = ("\n".join(lines),)
+    _what = "invalid panel model"
 
 
 class NastranError(PostcaptureError, ValueError):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from postcapture.config.limits import check_resources, degrees_of_freedom, estimate_model
 from postcapture.config.schema import Scenario
 from postcapture.core.errors import SimulationError
 from postcapture.core.rotations import dcm_from_quat, quat_to_pinocchio
@@ -45,6 +46,7 @@ def build_system(
     """
     if panel_segments is not None:
         scenario = scenario.with_panel_segments(panel_segments)
+    check_resources(estimate_model(degrees_of_freedom(scenario, variant)))
     assembly = assemble(scenario, variant)
     if not damping:
         assembly.springs.d = [0.0] * len(assembly.springs.d)

@@ -17,6 +17,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from postcapture.config.limits import check_resources, estimate_simulation
 from postcapture.config.schema import Scenario
 from postcapture.dynamics.accuracy import choose_step, newton_for
 from postcapture.dynamics.build import build_system, initial_state
@@ -84,6 +85,8 @@ def simulate_system(
     per = int(round(ratio))
     if per < 1 or abs(ratio - per) > 1e-9:
         raise ValueError(f"sample_period: expected a whole multiple of step = {step}, found {sample_period}")
+    check_resources(estimate_simulation(nv=system.nv, duration=duration, step=step, sample_period=sample_period,
+                                        integrator=integrator))
     n = int(round(duration / sample_period)) + 1
     plant = CompiledPlant(system, integrator)
     if newton is not None:

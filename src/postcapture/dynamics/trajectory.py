@@ -2,36 +2,14 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["StateLayout", "Trajectory", "write_atomic"]
+from postcapture.io.atomic import write_atomic
 
-
-def write_atomic(path: str | Path, writer) -> Path:
-    """Call ``writer(tmp_path)`` then rename the file onto ``path``: a failure never leaves half a file.
-
-    The temporary file sits in the destination folder so that the rename is atomic.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        writer(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+__all__ = ["StateLayout", "Trajectory"]
 
 
 @dataclass(frozen=True)

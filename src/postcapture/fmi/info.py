@@ -12,6 +12,7 @@ from collections import Counter
 from pathlib import Path
 
 from postcapture.core.errors import FMIError
+from postcapture.fmi.description import read_description
 from postcapture.fmi.mapping import Mapping, check_mapping, load_mapping
 
 __all__ = ["MAPPING_NEEDS", "fmu_info", "format_fmu_info"]
@@ -29,7 +30,7 @@ MAPPING_NEEDS = (
     ("jacobians", "optional: request input and F, g, H, h output name patterns"),
 )
 
-_ARRAY = re.compile(r"^(.*)\[(\d+)(?:,(\d+))?\](\)?)$")
+_ARRAY = re.compile(r"^(.*)\[([0-9]+)(?:,([0-9]+))?\](\)?)$")  # ASCII digits: int() reads any Unicode digit
 
 
 def fmu_info(path: str | Path, mapping: str | Path | Mapping | None = None) -> dict:
@@ -46,7 +47,9 @@ def fmu_info(path: str | Path, mapping: str | Path | Mapping | None = None) -> d
     -------
     dict
         ``path``, ``fmi_version``, ``model_name``, ``guid``, ``generation_tool``, ``interfaces``,
-        ``model_identifier``, ``capabilities``, ``default_experiment``, ``variables`` (list of dicts with
+        ``model_identifier``, ``capabilities`` (from the XML itself), ``binaries`` (``platform``,
+        ``platforms``, ``sources``, ``problem``: why it cannot run here, or None),
+        ``default_experiment``, ``variables`` (list of dicts with
         name, valueReference, causality, variability, unit, start, description), ``counts`` (per
         causality), ``mapping_needs`` and ``mapping`` (source, per-entry status, problems, satisfied,
         jacobians).
@@ -59,9 +62,8 @@ def fmu_info(path: str | Path, mapping: str | Path | Mapping | None = None) -> d
     from postcapture.fmi.process_model import open_model_description
 
     md = open_model_description(path)
-    cs, me = md.coSimulation, md.modelExchange
-    interfaces = [n for n, x in (("co-simulation", cs), ("model-exchange", me)) if x is not None]
-    main = cs or me
+    desc = read_description(path)
+    main = desc.interface("co-simulation") or (desc.interfaces[0] if desc.interfaces else None)
     variables = []
     for v in md.modelVariables:
         unit = v.unit if v.unit is not None else (v.declaredType.unit if v.declaredType is not None else None)
@@ -78,6 +80,13 @@ def fmu_info(path: str | Path, mapping: str | Path | Mapping | None = None) -> d
             }
         )
     de = md.defaultExperiment
+    flags = main.flags if main is not None else {}
+    binaries = {
+        "platform": desc.platform,
+        "platforms": list(desc.platforms),
+        "sources": desc.has_sources,
+        "problem": desc.binary_problem(main) if main is not None else "the FMU declares no interface",
+    }
     info = {
         "path": str(path),
         "fmi_version": md.fmiVersion,
@@ -85,42 +94,46 @@ def fmu_info(path: str | Path, mapping: str | Path | Mapping | None = None) -> d
         "guid": md.guid,
         "generation_tool": md.generationTool,
         "description": md.description,
-        "interfaces": interfaces,
-        "model_identifier": main.modelIdentifier if main is not None else None,
-        "capabilities": {
-            "canGetAndSetFMUstate": bool(main and main.canGetAndSetFMUstate),
-            "canSerializeFMUstate": bool(main and main.canSerializeFMUstate),
-            "providesDirectionalDerivative": bool(main and main.providesDirectionalDerivative),
-            "canHandleVariableCommunicationStepSize": bool(cs and cs.canHandleVariableCommunicationStepSize),
+        "interfaces": [i.kind for i in desc.interfaces],
+        "model_identifier": main.model_identifier if main is not None else None,
+        "capabilities": {  # read from the XML itself, by the spelling of the FMU's FMI version
+            "canGetAndSetFMUstate": flags.get("can_get_and_set_fmu_state", False),
+            "canSerializeFMUstate": flags.get("can_serialize_fmu_state", False),
+            "providesDirectionalDerivative": flags.get("provides_directional_derivatives", False),
+            "canHandleVariableCommunicationStepSize": flags.get("can_handle_variable_communication_step_size", False),
         },
+        "binaries": binaries,
         "default_experiment": None
         if de is None
         else {"startTime": de.startTime, "stopTime": de.stopTime, "stepSize": de.stepSize},
         "variables": variables,
         "counts": dict(Counter(v["causality"] for v in variables)),
         "mapping_needs": [{"entry": e, "meaning": m} for e, m in MAPPING_NEEDS],
-        "mapping": _mapping_status(md, path, mapping, info_cs=cs is not None),
+        "mapping": _mapping_status(md, desc, path, mapping),
     }
     return info
 
 
-def _mapping_status(md, path, mapping, info_cs: bool) -> dict:
-    names = {v.name for v in md.modelVariables}
+def _mapping_status(md, desc, path, mapping) -> dict:
     try:
         m = load_mapping(path, mapping)
-    except FMIError as exc:
-        return {"source": None, "entries": [], "problems": [str(exc)], "satisfied": False, "jacobians": None}
+    except FMIError as exc:  # none found (the error names the FMU), or found and invalid (it names the mapping)
+        source = exc.fmu if exc.fmu != str(path) else None
+        return {"source": source, "entries": [], "problems": [str(exc)], "satisfied": False, "jacobians": None}
+    names = {v.name for v in md.modelVariables}
     entries = [{"entry": e, "variable": n, "found": n in names} for e, n in m.entries()]
-    n_tangent = len(m.state) - 1 if m.kinematics else None
-    problems = check_mapping(m, names, str(path), n_tangent)
-    if not info_cs:
-        problems.append("the FMU has no co-simulation interface")
-    cs = md.coSimulation
+    problems = check_mapping(m, md.modelVariables, str(path), len(m.state) - 1)
+    cs = desc.interface("co-simulation")
+    if cs is None:
+        offered = " and ".join(i.kind for i in desc.interfaces) or "none"
+        problems.append(f"the FMU has no co-simulation interface (it offers: {offered}); the filters need one")
+    elif desc.binary_problem(cs):
+        problems.append(f"it cannot run here: {desc.binary_problem(cs)}")
     if m.jacobians is not None:
         jac = "outputs (exact)"
-    elif cs is not None and cs.providesDirectionalDerivative:
+    elif cs is not None and cs.flags["provides_directional_derivatives"]:
         jac = "directional derivatives (discretised)"
-    elif cs is not None and cs.canGetAndSetFMUstate:
+    elif cs is not None and cs.flags["can_get_and_set_fmu_state"]:
         jac = "finite differences over FMU states"
     else:
         jac = "none: the filters that need Jacobians cannot run"
@@ -184,6 +197,12 @@ def format_fmu_info(info: dict, width: int = 80) -> str:
         lines += wrap(f"generated by {info['generation_tool']}", "  ")
     caps = ", ".join(f"{k}={'yes' if v else 'no'}" for k, v in info["capabilities"].items())
     lines += wrap(f"capabilities: {caps}", "  ")
+    b = info.get("binaries")
+    if b is not None:
+        if b["problem"]:
+            lines += wrap(f"binaries: NONE FOR THIS PLATFORM: {b['problem']}", "  ")
+        else:
+            lines += wrap(f"binaries: {', '.join(b['platforms'])} (this platform: {b['platform']})", "  ")
     if info["default_experiment"]:
         de = info["default_experiment"]
         lines += wrap(f"default experiment: {de['startTime']} .. {de['stopTime']} s, step {de['stepSize']} s", "  ")
@@ -204,7 +223,8 @@ def format_fmu_info(info: dict, width: int = 80) -> str:
             lines += wrap(need["meaning"], "        ")
     else:
         status = "satisfied" if mp["satisfied"] else "NOT satisfied"
-        lines += wrap(f"mapping {mp['source']}: {status}; Jacobians from {mp['jacobians']}", "  ")
+        jac = f"; Jacobians from {mp['jacobians']}" if mp["jacobians"] else ""
+        lines += wrap(f"mapping {mp['source']}: {status}{jac}", "  ")
     for p in mp["problems"]:
         lines += wrap(f"- {p}", "    ")
     return "\n".join(lines)

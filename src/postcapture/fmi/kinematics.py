@@ -22,7 +22,7 @@ import numpy as np
 
 from postcapture.core.rotations import box_minus, box_plus
 
-__all__ = ["FreeFlyerKinematics", "QuaternionKinematics", "make_kinematics"]
+__all__ = ["FreeFlyerKinematics", "QuaternionKinematics", "layout_problems", "make_kinematics"]
 
 
 def _quat_matrix_xyzw(x, y, z, w) -> np.ndarray:
@@ -173,16 +173,68 @@ class QuaternionKinematics:
         return D
 
 
-def make_kinematics(kind: str, nx: int, attitude, rate):
-    """The tangent layout ``kind`` of a state of size ``nx`` (indices of q_BN (w, x, y, z) and rates)."""
+def layout_problems(kind: str, nx: int, attitude, rate) -> list[str]:
+    """Every reason why indices of q_BN (w, x, y, z) and of the rates do not fit layout ``kind``.
+
+    Parameters
+    ----------
+    kind : str
+        ``"free_flyer"`` or ``"quaternion"``.
+    nx : int
+        State size.
+    attitude, rate : sequence of int
+        Indices (0-based) of q_BN (w, x, y, z) and of omega_BN_B (x, y, z) in the state.
+
+    Returns
+    -------
+    list of str
+        Empty when the layout is usable.
+    """
+    att, rt = [int(i) for i in attitude], [int(i) for i in rate]
+    problems = []
+    if len(att) != 4 or len(rt) != 3:
+        return [f"expected 4 attitude and 3 rate entries, found {len(att)} and {len(rt)}"]
+    if any(not 0 <= i < nx for i in att + rt):
+        problems.append(f"attitude and rate entries must be among the {nx} state entries")
+    if len(set(att)) != 4:
+        problems.append("the four attitude entries must be distinct")
+    if len(set(rt)) != 3:
+        problems.append("the three rate entries must be distinct")
+    shared = sorted(set(att) & set(rt))
+    if shared:
+        problems.append(f"attitude and rate share state entr{'ies' if len(shared) > 1 else 'y'} "
+                        f"{', '.join(str(i + 1) for i in shared)} (1-based): they must not overlap")
+    if problems:
+        return problems
     if kind == "free_flyer":
-        kin = FreeFlyerKinematics(nx)
-        if list(attitude) != [6, 3, 4, 5] or list(rate) != [kin.nq + 3, kin.nq + 4, kin.nq + 5]:
-            raise ValueError(
-                "free_flyer kinematics: attitude must be q[7], q[4], q[5], q[6] and rate v[4], v[5], v[6] "
-                "of a Pinocchio free-flyer state"
-            )
-        return kin
+        if nx < 13 or nx % 2 == 0:
+            return [f"free_flyer kinematics: expected nx = 2 nq - 1 >= 13 state entries, found {nx}"]
+        nq = (nx + 1) // 2
+        if att != [6, 3, 4, 5] or rt != [nq + 3, nq + 4, nq + 5]:
+            return ["free_flyer kinematics: attitude must be q[7], q[4], q[5], q[6] and rate v[4], v[5], v[6] "
+                    "of a Pinocchio free-flyer state"]
+        return []
     if kind == "quaternion":
-        return QuaternionKinematics(nx, attitude, rate)
-    raise ValueError(f"kinematics: expected free_flyer or quaternion, found {kind!r}")
+        rest = [i for i in range(nx) if i not in set(att)]
+        pos = [rest.index(i) for i in rt]
+        if pos != list(range(pos[0], pos[0] + 3)):
+            return ["quaternion kinematics: the rate entries must be consecutive in the state (apart from the "
+                    "attitude entries) and in x, y, z order"]
+        return []
+    return [f"kinematics: expected free_flyer or quaternion, found {kind!r}"]
+
+
+def make_kinematics(kind: str, nx: int, attitude, rate):
+    """The tangent layout ``kind`` of a state of size ``nx`` (indices of q_BN (w, x, y, z) and rates).
+
+    Raises
+    ------
+    ValueError
+        With every problem of :func:`layout_problems`.
+    """
+    problems = layout_problems(kind, nx, attitude, rate)
+    if problems:
+        raise ValueError("; ".join(problems))
+    if kind == "free_flyer":
+        return FreeFlyerKinematics(nx)
+    return QuaternionKinematics(nx, attitude, rate)

@@ -4,7 +4,12 @@ A mapping names, by their FMI variable names, the state vector and its kinematic
 body rate inside it, the measurement (chaser acceleration, arm joint accelerations), the target-mass
 parameter, how the state is corrected (inputs plus a reset flag) and, optionally, exported Jacobian
 outputs. It is a small TOML file; :func:`postcapture.fmi.export_fmu` writes one for its FMUs (inside
-the FMU under ``resources/postcapture_mapping.toml`` and next to it as ``<name>.toml``).
+the FMU under ``resources/postcapture_mapping.toml`` and next to it as ``<name>.mapping.toml``).
+
+A mapping is checked twice: on its own when read (every entry present and of the right kind, no
+variable used twice, attitude and rates fitting the kinematics), and against the FMU's variables
+(:func:`check_mapping`: every name exists, corrections and the reset flag are real inputs, the mass a
+tunable parameter, the state and measurements readable outputs). Each problem is listed.
 
 An example (the mapping of an exported plant, shortened):
 
@@ -50,8 +55,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from postcapture.core.errors import FMIError
+from postcapture.fmi.kinematics import layout_problems
 
-__all__ = ["KINEMATICS", "JacobianOutputs", "Mapping", "load_mapping", "check_mapping"]
+__all__ = ["KINEMATICS", "JacobianOutputs", "Mapping", "load_mapping", "check_mapping", "mapping_sidecar"]
 
 KINEMATICS = ("free_flyer", "quaternion")
 
@@ -74,6 +80,58 @@ class JacobianOutputs:
             "H": [self.H.format(i=i + 1, j=j + 1) for i in range(m) for j in range(n)],
             "h": [self.h.format(i=i + 1) for i in range(m)],
         }
+
+
+def _pattern_problems(jac: JacobianOutputs) -> list[str]:
+    """Jacobian name patterns must give one distinct name per entry: ``{i}`` (and ``{j}`` for matrices)."""
+    problems = []
+    for key, fields in (("F", ("i", "j")), ("H", ("i", "j")), ("g", ("i",)), ("h", ("i",))):
+        pattern = getattr(jac, key)
+        try:
+            a = pattern.format(i=1, j=2)
+            b = pattern.format(i=2, j=1)
+        except (KeyError, IndexError, ValueError, AttributeError) as exc:
+            problems.append(f"[jacobians] {key}: {pattern!r} is not a name pattern with {{i}}"
+                            f"{' and {j}' if len(fields) == 2 else ''} ({type(exc).__name__}: {exc})")
+            continue
+        if any("{" + f + "}" not in pattern for f in fields) or a == b:
+            need = " and ".join("{" + f + "}" for f in fields)
+            problems.append(f"[jacobians] {key}: expected a pattern holding {need}, found {pattern!r}")
+    return problems
+
+
+def _overlap_problems(state, corr, reset, attitude, rate, accel, joint, mass) -> list[str]:
+    """A variable may play one role only (the attitude and rates are state entries by design)."""
+    problems = []
+    for key, names in (("[state] variables", state), ("[correction] inputs", corr), ("[state] attitude", attitude),
+                       ("[state] rate", rate), ("[measurement] accel", accel), ("[measurement] joint_accel", joint)):
+        seen, dup = set(), []
+        for n in names or ():
+            if n in seen and n not in dup:
+                dup.append(n)
+            seen.add(n)
+        if dup:
+            problems.append(f"{key}: {', '.join(repr(d) for d in dup)} listed more than once")
+    shared = sorted(set(attitude or ()) & set(rate or ()))
+    if shared:
+        problems.append(f"[state] rate: {', '.join(repr(n) for n in shared)} also in [state] attitude: "
+                        "the attitude and rate entries must not overlap")
+    roles = {"state.variables": set(state or ()), "correction.inputs": set(corr or ()),
+             "correction.reset": {reset} if reset else set(), "parameters.mass": {mass} if mass else set()}
+    keys = list(roles)
+    for a in range(len(keys)):
+        for b in range(a + 1, len(keys)):
+            both = sorted(roles[keys[a]] & roles[keys[b]])
+            if both:
+                problems.append(f"{keys[b]}: {', '.join(repr(n) for n in both)} also in {keys[a]}: "
+                                "a variable plays one role only")
+    return problems
+
+
+def mapping_sidecar(fmu_path: str | Path) -> Path:
+    """The mapping file written beside an FMU: ``<stem>.mapping.toml`` (never the FMU's own name)."""
+    fmu_path = Path(fmu_path)
+    return fmu_path.with_name(f"{fmu_path.stem}.mapping.toml")
 
 
 @dataclass(frozen=True)
@@ -145,6 +203,15 @@ class Mapping:
                 return tuple(val)
             return val
 
+        known = {"format": None, "fmu": None, "state": {"variables", "kinematics", "attitude", "rate"},
+                 "correction": {"inputs", "reset"}, "measurement": {"accel", "joint_accel"}, "parameters": {"mass"},
+                 "jacobians": {"request", "F", "g", "H", "h"}}
+        for section, value in data.items():
+            if section not in known:
+                problems.append(f"[{section}]: not a mapping section (expected {', '.join(known)})")
+            elif known[section] is not None and isinstance(value, dict):
+                problems += [f"[{section}] {k}: not a key of this section (expected {', '.join(sorted(known[section]))})"
+                             for k in value if k not in known[section]]
         state = get("state", "variables", list)
         kin = get("state", "kinematics", str)
         attitude = get("state", "attitude", list, 4)
@@ -159,17 +226,24 @@ class Mapping:
             parts = [get("jacobians", k, str) for k in ("request", "F", "g", "H", "h")]
             if all(p is not None for p in parts):
                 jac = JacobianOutputs(*parts)
+        if jac is not None:
+            problems += _pattern_problems(jac)
         if kin is not None and kin not in KINEMATICS:
             problems.append(f"[state] kinematics: expected one of {', '.join(KINEMATICS)}, found {kin!r}")
         if state is not None and corr is not None and len(state) != len(corr):
             problems.append(
                 f"[correction] inputs: expected {len(state)} names (one per state entry), found {len(corr)}"
             )
+        problems += _overlap_problems(state, corr, reset, attitude, rate, accel, joint, mass)
         if state is not None:
             for key, names in (("attitude", attitude), ("rate", rate)):
                 for nm in names or ():
                     if nm not in state:
                         problems.append(f"[state] {key}: {nm!r} is not one of state.variables")
+            if not problems and kin in KINEMATICS and attitude and rate:
+                idx = {n: i for i, n in enumerate(state)}
+                problems += [f"[state] {p}" for p in layout_problems(kin, len(state), [idx[n] for n in attitude],
+                                                                     [idx[n] for n in rate])]
         if problems:
             raise FMIError("invalid mapping:\n  - " + "\n  - ".join(problems), fmu=source, function="mapping")
         return cls(
@@ -258,36 +332,81 @@ class Mapping:
         return out
 
 
-def check_mapping(
-    mapping: Mapping, names: set[str] | list[str], fmu: str, tangent_dim: int | None = None
-) -> list[str]:
-    """Problems of ``mapping`` against an FMU's variable names (empty when every name exists).
+_ROLES = {
+    # entry: (causalities allowed, variabilities allowed or None, what it must be)
+    "state.variables": ({"output", "local"}, None, "a readable output"),
+    "measurement.accel": ({"output", "local"}, None, "a readable output"),
+    "measurement.joint_accel": ({"output", "local"}, None, "a readable output"),
+    "correction.inputs": ({"input"}, None, "an input (set before each step)"),
+    "correction.reset": ({"input"}, None, "an input (set before each step)"),
+    "jacobians.request": ({"input"}, None, "an input"),
+    "parameters.mass": ({"parameter"}, {"tunable"}, "a tunable parameter"),
+}
+_REAL_TYPES = ("Real", "Float64")
 
-    Each missing name is reported with the closest existing names (``difflib``).
+
+def _close(name: str, pool: list[str]) -> str:
+    close = difflib.get_close_matches(name, pool, n=4, cutoff=0.6)
+    return f"; close matches: {', '.join(close)}" if close else ""
+
+
+def check_mapping(mapping: Mapping, variables, fmu: str, tangent_dim: int | None = None) -> list[str]:
+    """Problems of ``mapping`` against an FMU's variables (empty when it fits).
+
+    Parameters
+    ----------
+    mapping : Mapping
+    variables : iterable of str, or of FMPy ``ModelVariable``
+        The FMU's variable names, or its variables: then causality, variability and type are checked
+        too (corrections and the reset flag inputs, the mass a tunable parameter, the state and the
+        measurements outputs, all of them real-valued).
+    fmu : str
+        The FMU (for messages).
+    tangent_dim : int, optional
+        Tangent size, to check the expanded Jacobian output names.
+
+    Returns
+    -------
+    list of str
+        One message per problem; a missing name comes with the closest existing names (``difflib``).
     """
-    names = set(names)
-    pool = sorted(names)
+    variables = list(variables)
+    by_name = {v: None for v in variables} if all(isinstance(v, str) for v in variables) else \
+        {v.name: v for v in variables}
+    pool = sorted(by_name)
     problems = []
     for entry, name in mapping.entries():
-        if name not in names:
-            close = difflib.get_close_matches(name, pool, n=4, cutoff=0.6)
-            hint = f"; close matches: {', '.join(close)}" if close else ""
-            problems.append(f"{entry}: no variable {name!r} in the FMU{hint}")
+        if name not in by_name:
+            problems.append(f"{entry}: no variable {name!r} in the FMU{_close(name, pool)}")
+            continue
+        v = by_name[name]
+        if v is None:
+            continue
+        causalities, variabilities, what = _ROLES[entry]
+        if v.causality not in causalities or (variabilities is not None and v.variability not in variabilities):
+            problems.append(f"{entry}: {name!r} has causality {v.causality!r} and variability {v.variability!r}; "
+                            f"expected {what}")
+        elif v.type not in _REAL_TYPES:
+            problems.append(f"{entry}: {name!r} is of type {v.type}; expected a real (Real / Float64) variable")
     if mapping.jacobians is not None and tangent_dim is not None:
         for key, group in mapping.jacobians.expand(tangent_dim, mapping.n_meas).items():
-            missing = [g for g in group if g not in names]
+            missing = [g for g in group if g not in by_name]
             if missing:
-                close = difflib.get_close_matches(missing[0], pool, n=4, cutoff=0.6)
-                hint = f"; close matches: {', '.join(close)}" if close else ""
                 problems.append(
                     f"jacobians.{key}: {len(missing)} of {len(group)} variables missing, "
-                    f"first {missing[0]!r}{hint}"
+                    f"first {missing[0]!r}{_close(missing[0], pool)}"
                 )
+            elif by_name[group[0]] is not None:
+                unreadable = [g for g in group if by_name[g].causality not in ("output", "local")]
+                if unreadable:
+                    problems.append(f"jacobians.{key}: {len(unreadable)} of {len(group)} variables are not outputs, "
+                                    f"first {unreadable[0]!r}")
     return problems
 
 
 def load_mapping(fmu_path: str | Path, mapping: str | Path | Mapping | None = None) -> Mapping:
-    """The mapping of an FMU: the one given, else the FMU's embedded one, else ``<fmu>.toml`` beside it.
+    """The mapping of an FMU: the one given, else the FMU's embedded one, else ``<stem>.mapping.toml``
+    beside it (else ``<stem>.toml``, as earlier versions named it).
 
     Raises
     ------
@@ -308,9 +427,12 @@ def load_mapping(fmu_path: str | Path, mapping: str | Path | Mapping | None = No
                 return Mapping.from_text(text, source=f"{fmu_path}!resources/postcapture_mapping.toml")
     except zipfile.BadZipFile as exc:
         raise FMIError("not a ZIP archive (an FMU is one)", fmu=str(fmu_path), function="open") from exc
-    side = fmu_path.with_suffix(".toml")
+    side = mapping_sidecar(fmu_path)
     if side.is_file():
         return Mapping.from_toml(side)
+    legacy = fmu_path.with_suffix(".toml")  # the name used before 0.2 (it could collide with the FMU's own)
+    if legacy.is_file() and legacy != fmu_path:
+        return Mapping.from_toml(legacy)
     raise FMIError(
         "no mapping: pass one (a TOML file naming the state, correction inputs, reset flag, attitude, rates, "
         f"measurements and mass parameter), or put it in resources/postcapture_mapping.toml or {side.name}",

@@ -21,9 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from postcapture.core.errors import DimensionError, FMIError
+from postcapture.core.errors import DimensionError, DomainError, FMIError
 from postcapture.estimation.process import Prediction
 from postcapture.fmi._extras import import_fmpy
+from postcapture.fmi.description import read_description
 from postcapture.fmi.jacobians import JACOBIAN_METHODS
 from postcapture.fmi.kinematics import make_kinematics
 from postcapture.fmi.mapping import Mapping, check_mapping, load_mapping
@@ -105,12 +106,19 @@ class FMUProcessModel:
         self.path = Path(path)
         self.label = str(self.path)
         md = open_model_description(self.path)
-        if md.coSimulation is None:
+        desc = read_description(self.path)
+        cs = desc.interface("co-simulation")
+        if cs is None or md.coSimulation is None:
+            offered = " and ".join(i.kind for i in desc.interfaces) or "no interface at all"
             raise FMIError(
-                "this is a model-exchange-only FMU; a process model needs co-simulation",
+                f"this FMU offers {offered}; a process model needs the co-simulation interface "
+                "(model exchange and FMI 3 scheduled execution are not supported)",
                 fmu=self.label,
                 function="open",
             )
+        unrunnable = desc.binary_problem(cs)
+        if unrunnable:
+            raise FMIError(unrunnable, fmu=self.label, function="open")
         self.model_description = md
         self.mapping = load_mapping(self.path, mapping)
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -124,7 +132,7 @@ class FMUProcessModel:
             )
         except ValueError as exc:
             raise FMIError(f"invalid mapping: {exc}", fmu=self.label, function="mapping") from exc
-        problems = check_mapping(self.mapping, self.vr.keys(), self.label, self.kinematics.n)
+        problems = check_mapping(self.mapping, md.modelVariables, self.label, self.kinematics.n)
         if problems:
             raise FMIError(
                 "the mapping does not match the FMU:\n  - " + "\n  - ".join(problems),
@@ -141,10 +149,10 @@ class FMUProcessModel:
         self.measurement_names = list(self.mapping.accel) + list(self.mapping.joint_accel)
         self._att = np.array([idx[n] for n in self.mapping.attitude])
         self._rate = np.array([idx[n] for n in self.mapping.rate])
-        self.capabilities = {
+        self.capabilities = {  # read from the XML itself: FMPy drops FMI 3.0's providesDirectionalDerivatives
             "fmi_version": md.fmiVersion,
-            "can_get_and_set_fmu_state": bool(md.coSimulation.canGetAndSetFMUstate),
-            "provides_directional_derivative": bool(md.coSimulation.providesDirectionalDerivative),
+            "can_get_and_set_fmu_state": cs.flags["can_get_and_set_fmu_state"],
+            "provides_directional_derivative": cs.flags["provides_directional_derivatives"],
             "jacobian_outputs": self.mapping.jacobians is not None,
         }
         self._requested = jacobians
@@ -250,6 +258,8 @@ class FMUProcessModel:
     def mass(self, value: float) -> None:
         if self._mass_buf is None:
             raise AttributeError("the mapping names no mass parameter")
+        if not np.isfinite(value):
+            raise DomainError(f"mass: expected a finite mass (kg), found {value}")
         self._mass_buf.values[0] = float(value)
         self.slave.set_real(self._mass_buf)
         self._mass = float(value)
@@ -281,13 +291,21 @@ class FMUProcessModel:
         Raises
         ------
         FMIError
-            When a call fails (``fmi2DoStep`` returning Discard or Error, ...).
+            When a call fails (``fmi2DoStep`` returning Discard or Error, ...), or the FMU is in the
+            error state after an earlier failure.
+        DimensionError, DomainError
+            For ``x`` of the wrong shape or not finite, or ``t``, ``dt`` not finite or ``dt <= 0``.
         """
         if self.slave is None:
             raise FMIError("the process model is closed", fmu=self.label, function="predict")
         x = np.asarray(x, dtype=float)
         if x.shape != (self.nx,):
             raise DimensionError(f"x: expected shape ({self.nx},), found {x.shape}")
+        if not np.all(np.isfinite(x)):
+            bad = [self.mapping.state[i] for i in np.flatnonzero(~np.isfinite(x))[:3]]
+            raise DomainError(f"x: expected finite values, found non-finite {', '.join(bad)}")
+        if not (np.isfinite(t) and np.isfinite(dt) and dt > 0):
+            raise DomainError(f"t, dt: expected a finite time and a finite step > 0 s, found t = {t}, dt = {dt}")
         if not jacobians:
             x1, z = self._raw_step(x, t, dt)
             return Prediction(x1, z)

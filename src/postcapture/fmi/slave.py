@@ -4,12 +4,19 @@ FMPy's high-level methods (``getReal``, ``setReal``, ...) build ctypes arrays fr
 call (about 17 us for 100 variables); here the value references and values live in numpy arrays whose
 pointers are made once, and the C functions FMPy loaded are called directly (under 1 us per call).
 A status above Warning becomes :class:`~postcapture.core.errors.FMIError` naming the FMU, the function
-and the status. FMI 2.0 and 3.0 co-simulation FMUs are supported.
+and the status, with the FMU's own last log messages. FMI 2.0 and 3.0 co-simulation FMUs are supported.
+
+The FMU's log messages go to Python logging (logger ``postcapture.fmi.slave``), never to stdout. After
+a call returns Error or Fatal the instance is in the FMI error state: every later call but closing
+raises at once, naming the call that failed, instead of reaching the FMU.
 """
 
 from __future__ import annotations
 
+import itertools
 import logging
+import weakref
+from collections import deque
 from ctypes import POINTER, byref, c_bool, c_double, c_uint, c_void_p
 
 import numpy as np
@@ -22,6 +29,60 @@ __all__ = ["STATUS_NAMES", "Buffer", "RawSlave"]
 logger = logging.getLogger(__name__)
 
 STATUS_NAMES = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
+_LOG_LEVELS = {0: logging.DEBUG, 1: logging.WARNING, 2: logging.INFO, 3: logging.INFO, 4: logging.INFO}
+# Discard, Error and Fatal messages are logged quietly: they are repeated in the FMIError raised.
+
+
+def _text(value) -> str:
+    if isinstance(value, bytes):
+        return value.decode("utf-8", errors="replace")
+    return "" if value is None else str(value)
+
+
+_SLAVES: dict[int, weakref.ref] = {}
+_PROXY: list = []  # the one FMI 2.0 callback structure FMPy's logger proxy holds on to (never freed)
+_TOKENS = itertools.count(1)
+
+
+def _dispatch(env, name, status, category, message) -> None:
+    """The process-wide FMI 2.0 logger: to the RawSlave named by the environment, else FMPy's default."""
+    ref = _SLAVES.get(env or 0)
+    slave = ref() if ref is not None else None
+    if slave is not None:
+        slave._log(status, category, message)
+        return
+    try:
+        from fmpy.fmi1 import printLogMessage
+
+        printLogMessage(env, name, status, category, message)  # what FMPy does for its own instances
+    except Exception:  # noqa: BLE001 - an exception must never cross the C callback
+        pass
+
+
+def _fmi2_callbacks(slave):
+    """FMI 2.0 callbacks whose log messages reach ``slave._log``, formatted.
+
+    FMPy's C proxy formats the variadic message, then calls one process-wide Python logger (it keeps a
+    single global pointer): that logger is :func:`_dispatch`, installed once and never freed, and each
+    instance gets its own environment token to be found again.
+    """
+    from fmpy import fmi2
+    from fmpy.logging import addLoggerProxy
+
+    if not _PROXY:
+        base = fmi2.fmi2CallbackFunctions()
+        base.logger = fmi2.fmi2CallbackLoggerTYPE(_dispatch)
+        base.allocateMemory = fmi2.fmi2CallbackAllocateMemoryTYPE(fmi2.calloc)
+        base.freeMemory = fmi2.fmi2CallbackFreeMemoryTYPE(fmi2.free)
+        addLoggerProxy(byref(base))  # now base.logger is the C proxy
+        _PROXY.append(base)
+    base = _PROXY[0]
+    token = next(_TOKENS)
+    _SLAVES[token] = weakref.ref(slave, lambda _ref, token=token: _SLAVES.pop(token, None))
+    cb = fmi2.fmi2CallbackFunctions()
+    cb.logger, cb.allocateMemory, cb.freeMemory = base.logger, base.allocateMemory, base.freeMemory
+    cb.componentEnvironment = token
+    return cb
 
 
 class Buffer:
@@ -71,6 +132,8 @@ class RawSlave:
         md = model_description
         self.label = label
         self.version = 3 if md.fmiVersion.startswith("3") else 2
+        self.failed: str | None = None  # the call that put the FMU in the error state
+        self.messages: deque = deque(maxlen=5)  # the FMU's last warning and error messages
         cls = FMU3Slave if self.version == 3 else FMU2Slave
         try:
             self.fmu = cls(
@@ -83,7 +146,7 @@ class RawSlave:
             raise FMIError(f"cannot load the shared library: {exc}", fmu=label, function="load") from exc
         self._prefix = "fmi3" if self.version == 3 else "fmi2"
         try:
-            self.fmu.instantiate()
+            self._instantiate()
         except Exception as exc:
             raise FMIError(
                 f"instantiation failed: {exc}", fmu=label, function=f"{self._prefix}Instantiate"
@@ -118,19 +181,55 @@ class RawSlave:
             self._event, self._term, self._early = c_bool(), c_bool(), c_bool()
             self._last = c_double()
 
+    # ------------------------------------------------------------------ logging
+    def _log(self, status, category, message) -> None:
+        """The FMU's log callback: to Python logging, and the last warnings kept for error messages."""
+        try:
+            status = int(status)
+            text = _text(message).strip()
+            logger.log(_LOG_LEVELS.get(status, logging.INFO), "%s [%s] %s", self.label,
+                       STATUS_NAMES.get(status, status), text)
+            if status >= 1 and text:
+                self.messages.append(text)
+        except Exception:  # noqa: BLE001 - an exception must never cross the C callback
+            pass
+
+    def _instantiate(self) -> None:
+        if self.version == 3:
+            self.fmu.instantiate(logMessage=lambda env, status, category, message: self._log(status, category, message))
+            return
+        self._callbacks = _fmi2_callbacks(self)  # kept alive as long as the instance
+        self.fmu.instantiate(callbacks=self._callbacks)
+
     # ------------------------------------------------------------------ checks
     def _check(self, status: int, function: str) -> None:
         if status > 1:
+            name = f"{self._prefix}{function}"
+            said = "; the FMU said: " + " | ".join(self.messages) if self.messages else \
+                " (the FMU logged no message)"
+            self.messages.clear()
+            if status in (3, 4):
+                self.failed = f"{name} returned {STATUS_NAMES[status]}"
             raise FMIError(
-                "the call failed (see the FMU's log for its message)",
+                f"the call failed{said}",
+                fmu=self.label,
+                function=name,
+                status=STATUS_NAMES.get(status, str(status)),
+            )
+
+    def _usable(self, function: str) -> None:
+        """Refuse a call on an instance in the error state (FMI: only freeing it is allowed then)."""
+        if self.failed is not None:
+            raise FMIError(
+                f"the FMU is in the error state since {self.failed}; it can only be freed",
                 fmu=self.label,
                 function=f"{self._prefix}{function}",
-                status=STATUS_NAMES.get(status, str(status)),
             )
 
     # ------------------------------------------------------------------ values
     def set_real(self, buf: Buffer) -> None:
         """Set the variables of ``buf`` to ``buf.values``."""
+        self._usable("SetFloat64" if self.version == 3 else "SetReal")
         if self.version == 3:
             st = self._set(self._c, buf.vr_ptr, buf.n, buf.val_ptr, buf.n)
         else:
@@ -138,7 +237,7 @@ class RawSlave:
         self._check(st, "SetFloat64" if self.version == 3 else "SetReal")
 
     def get_real(self, buf: Buffer) -> np.ndarray:
-        """Read the variables of ``buf`` into ``buf.values`` (returned, not copied)."""
+        """Read the variables of ``buf`` into ``buf.values`` (returned, not copied; allowed in the error state)."""
         if self.version == 3:
             st = self._get(self._c, buf.vr_ptr, buf.n, buf.val_ptr, buf.n)
         else:
@@ -148,6 +247,7 @@ class RawSlave:
 
     def do_step(self, t: float, h: float) -> None:
         """One communication step from ``t`` (s) of length ``h`` (s)."""
+        self._usable("DoStep")
         if self.version == 3:
             st = self._step(
                 self._c,
@@ -165,6 +265,7 @@ class RawSlave:
 
     def directional(self, unknown: Buffer, known: Buffer, seed: np.ndarray, out: np.ndarray) -> np.ndarray:
         """``out = J seed`` with ``J = d unknown / d known`` (continuous partials at the current time)."""
+        self._usable("GetDirectionalDerivative")
         if self._dd is None:
             raise FMIError(
                 "no directional derivatives in the library",
@@ -185,6 +286,7 @@ class RawSlave:
     # ------------------------------------------------------------------ FMU state
     def get_state(self, handle: c_void_p | None = None) -> c_void_p:
         """Save the FMU state (into ``handle`` when given, reusing its memory)."""
+        self._usable("GetFMUState" if self.version == 3 else "GetFMUstate")
         if self._get_state is None:
             raise FMIError(
                 "the library has no FMU-state functions",
@@ -199,6 +301,7 @@ class RawSlave:
 
     def set_state(self, handle: c_void_p) -> None:
         """Restore a saved FMU state."""
+        self._usable("SetFMUState" if self.version == 3 else "SetFMUstate")
         self._check(self._set_state(self._c, handle), "SetFMUState" if self.version == 3 else "SetFMUstate")
 
     def free_state(self, handle: c_void_p) -> None:
@@ -211,7 +314,9 @@ class RawSlave:
         fmu, self.fmu = getattr(self, "fmu", None), None
         if fmu is None:
             return
-        for call in (fmu.terminate, fmu.freeInstance, fmu.freeLibrary):
+        calls = (fmu.terminate, fmu.freeInstance, fmu.freeLibrary) if self.failed is None else \
+            (fmu.freeInstance, fmu.freeLibrary)  # FMI: an instance in the error state may only be freed
+        for call in calls:
             try:
                 call()
             except Exception as exc:  # closing must not raise: the instance may be in error

@@ -39,10 +39,10 @@ from pathlib import Path
 
 import numpy as np
 
-from postcapture.core.errors import PanelModelError, Problem
+from postcapture.core.errors import NastranError, PanelModelError, Problem
 from postcapture.panels.builtin import BUILTIN_PANELS, builtin_panel
 from postcapture.panels.calibration import CalibrationResult, CalibrationRun, run_label
-from postcapture.panels.fem import solve_modes
+from postcapture.panels.fem import assemble, solve_modes
 from postcapture.panels.identify import ModalTarget, identify_stiffness, initial_stiffness, torsion_stiffness
 from postcapture.panels.laminate import Laminate
 from postcapture.panels.lumped import LumpedChain, chain_panel, lumped_modes
@@ -56,12 +56,67 @@ from postcapture.panels.sweep import (
     tip_response_fem,
 )
 
-__all__ = ["SWEEP_AMPLITUDE", "load_panel_file", "calibrate"]
+__all__ = ["SWEEP_AMPLITUDE", "OP2_TOLERANCE", "load_panel_file", "compare_with_fem", "calibrate"]
 
 logger = logging.getLogger(__name__)
 
 SWEEP_AMPLITUDE = {"envisat": 1.0, "chaser": 0.01}
 """Tip force amplitude of the reference's sweeps (N); other panels get 1 N unless told."""
+
+OP2_TOLERANCE = {"mass": 0.05, "frequency": 0.10, "modes": 3}
+"""How far an OP2 reference may lie from the project's own FEM of the same panel and mesh before it is
+refused (unless forced): the mass its mass-normalised shapes imply (relative, 5 %) and each of its
+first ``modes`` frequencies (relative, 10 %). Independent solvers on this mesh agree to 0.02-0.45 %
+(MYSTRAN, see DESIGN.md); an OP2 of the wrong panel mass once gave stiffnesses 3.5 times too low."""
+
+
+def compare_with_fem(modes: PanelModes, geometry: PanelGeometry, laminate: Laminate, *,
+                     n_check: int = OP2_TOLERANCE["modes"]) -> dict:
+    """Compare reference modes (an OP2's, on the `write_bdf` mesh) with the project's FEM of the panel.
+
+    The mass: shapes normalised to the reference model's mass matrix ``M_ref`` have generalised masses
+    ``phi^T M phi = m / m_ref`` under the project's ``M``; their median gives the reference's mass over
+    ours. The frequencies: the first ``n_check`` of each, in ascending order.
+
+    Returns
+    -------
+    dict
+        ``mass_ratio`` (reference / ours), ``mass_kg`` (ours), ``frequencies_hz`` (reference) and
+        ``fem_frequencies_hz`` (ours), ``frequency_ratios`` (reference / ours), each over the first
+        ``n_check`` modes.
+    """
+    mesh = modes.mesh
+    n = min(int(n_check), modes.n_modes)
+    ours = solve_modes(geometry, laminate, n_length=mesh.n_length, n_width=mesh.n_width, n_modes=n)
+    _, m = assemble(mesh, laminate)
+    phi = modes.shapes.reshape(-1, modes.n_modes)[:, :n].astype(float)
+    generalised = np.einsum("im,im->m", phi, m @ phi)
+    ratio = 1.0 / float(np.median(generalised)) if np.all(generalised > 0) else float("inf")
+    f_ref = np.asarray(modes.frequencies_hz[:n], dtype=float)
+    f_ours = ours.frequencies_hz[:n]
+    return {"mass_ratio": ratio, "mass_kg": laminate.areal_mass * geometry.area, "frequencies_hz": f_ref,
+            "fem_frequencies_hz": f_ours, "frequency_ratios": f_ref / f_ours}
+
+
+def _check_reference(modes: PanelModes, geometry, laminate, source: str, force: bool) -> str:
+    """Refuse (or, forced, warn about) a reference too far from the project's FEM; a note for the report."""
+    cmp = compare_with_fem(modes, geometry, laminate)
+    off_mass = abs(cmp["mass_ratio"] - 1.0) > OP2_TOLERANCE["mass"]
+    off_freq = bool(np.any(np.abs(cmp["frequency_ratios"] - 1.0) > OP2_TOLERANCE["frequency"]))
+    note = (f"its shapes imply {cmp['mass_ratio']:.3g} times the panel's {cmp['mass_kg']:.4g} kg; its first "
+            f"frequencies {', '.join(f'{f:.4g}' for f in cmp['frequencies_hz'])} Hz against the project's FEM "
+            f"{', '.join(f'{f:.4g}' for f in cmp['fem_frequencies_hz'])} Hz")
+    if not (off_mass or off_freq):
+        return note
+    what = " and ".join(w for w, off in (("mass", off_mass), ("frequencies", off_freq)) if off)
+    message = (f"the OP2 reference differs from the project's own FEM of this panel in {what}, beyond the "
+               f"tolerance (mass {OP2_TOLERANCE['mass']:.0%}, frequencies {OP2_TOLERANCE['frequency']:.0%}): {note}. "
+               "Check that the OP2 is of this panel (geometry, laminate, cell mass), in SI units, with mass-normalised "
+               "eigenvectors (EIGRL NORM=MASS); to calibrate against it anyway, force it (--force-reference)")
+    if not force:
+        raise NastranError(message, source)
+    logger.warning("%s: %s; forced", source, message)
+    return note + " (beyond the tolerance; forced)"
 
 
 def load_panel_file(path) -> tuple[PanelGeometry, Laminate]:
@@ -130,7 +185,7 @@ def _resolve_panel(panel) -> tuple[PanelGeometry, Laminate, str]:
 
 
 def _resolve_reference(reference, geometry, laminate, *, n_length, n_width,
-                       n_modes) -> tuple[PanelModes, str]:
+                       n_modes, force: bool = False) -> tuple[PanelModes, str]:
     if isinstance(reference, PanelModes):
         g = reference.mesh.geometry
         if not (math.isclose(g.length, geometry.length) and math.isclose(g.width, geometry.width)):
@@ -146,7 +201,8 @@ def _resolve_reference(reference, geometry, laminate, *, n_length, n_width,
 
         op2 = read_op2_modes(reference)
         modes = op2.to_panel_modes(panel_mesh(geometry, n_length=n_length, n_width=n_width))
-        return modes, f"OP2 {os.fspath(reference)} ({modes.n_modes} modes)"
+        note = _check_reference(modes, geometry, laminate, os.fspath(reference), force)
+        return modes, f"OP2 {os.fspath(reference)} ({modes.n_modes} modes; {note})"
     raise PanelModelError([Problem("reference", "'fem', an OP2 path or PanelModes",
                                    type(reference).__name__)])
 
@@ -173,7 +229,7 @@ def _check_inputs(segments, weights, damping_ratio) -> tuple[float, ...]:
 
 def calibrate(panel="envisat", *, segments: int = 5, weights=(1.0, 10.0, 0.1), reference="fem",
               n_bending: int = 3, damping_ratio: float = 0.01, sweep: SweepSpec | None = None,
-              n_length: int = 60, n_width: int = 20, n_modes: int = 12,
+              n_length: int = 60, n_width: int = 20, n_modes: int = 12, force_reference: bool = False,
               progress: Callable[[int, int, str], None] | None = None) -> CalibrationResult:
     """Calibrate the lumped chain of a panel against plate modes and validate it by a tip sine sweep.
 
@@ -201,6 +257,9 @@ def calibrate(panel="envisat", *, segments: int = 5, weights=(1.0, 10.0, 0.1), r
         FEM mesh (also the OP2's). Default 60 x 20.
     n_modes : int, optional
         Reference modes computed by the FEM (all superposed in the sweep). Default 12.
+    force_reference : bool, optional
+        Use an OP2 reference even when it lies beyond `OP2_TOLERANCE` of the project's own FEM of the
+        panel (implied mass, first frequencies); by default such a reference is refused. Default False.
     progress : callable, optional
         ``progress(done, total, message) -> None`` after each stage.
 
@@ -214,7 +273,8 @@ def calibrate(panel="envisat", *, segments: int = 5, weights=(1.0, 10.0, 0.1), r
         For a bad panel, segment count, weight, damping ratio or reference, or a reference without a
         bending or torsion mode.
     NastranError
-        If the OP2 file cannot be used.
+        If the OP2 file cannot be used, or lies beyond `OP2_TOLERANCE` of the project's FEM (unless
+        ``force_reference``).
     """
     t0 = time.perf_counter()
     ws = _check_inputs(segments, weights, damping_ratio)
@@ -230,7 +290,7 @@ def calibrate(panel="envisat", *, segments: int = 5, weights=(1.0, 10.0, 0.1), r
             progress(done, total, message)
 
     modes, ref_text = _resolve_reference(reference, geometry, laminate, n_length=n_length, n_width=n_width,
-                                         n_modes=n_modes)
+                                         n_modes=n_modes, force=force_reference)
     step(f"reference modes: {ref_text}")
     target = ModalTarget.from_panel_modes(modes, segments, n_bending=n_bending)
     if not math.isfinite(target.torsion_hz):

@@ -20,7 +20,7 @@ import numpy as np
 import tomli_w
 
 from postcapture.core.errors import PanelModelError, Problem
-from postcapture.dynamics.trajectory import write_atomic
+from postcapture.io import ResultSet, safe_stem
 from postcapture.panels.sweep import SweepSpec, amplitude_spectrum
 
 __all__ = ["PLOT_ZERO_PAD", "run_label", "CalibrationRun", "CalibrationResult"]
@@ -294,7 +294,10 @@ class CalibrationResult:
 
     def write(self, out_dir, *, run: str | None = None,
               figures: Callable[[Mapping], Mapping] | None = None) -> list[Path]:
-        """Write the tables, the JSON, the TOML fragment and, optionally, figures, each atomically.
+        """Write the tables, the JSON, the TOML fragment and, optionally, figures, as one set.
+
+        The folder is replaced as a whole (:class:`postcapture.io.ResultSet`): a failure leaves the
+        previous set as it was; entries that are not calibration results are kept.
 
         Parameters
         ----------
@@ -311,16 +314,16 @@ class CalibrationResult:
         list of Path
             ``calibration.txt``, ``calibration.json``, ``<name>_panel.toml`` and the figures.
         """
-        out = Path(out_dir)
         texts = {"calibration.txt": self.tables(), "calibration.json": self.to_json() + "\n",
-                 f"{self.name}_panel.toml": self.toml_fragment(run)}
-        paths = [write_atomic(out / fname, lambda p, t=text: Path(p).write_text(t, encoding="utf-8"))
-                 for fname, text in texts.items()]
-        if figures is not None:
-            for stem, fig in figures(self.plot_data()).items():
-                paths.append(write_atomic(out / f"{stem}.png",
-                                          lambda p, f=fig: f.savefig(p, format="png", dpi=120)))
-        logger.info("calibration of %s written to %s (%d files)", self.name, out, len(paths))
+                 f"{safe_stem(self.name)}_panel.toml": self.toml_fragment(run)}
+        owned = ("calibration.txt", "calibration.json", "*_panel.toml", "sweep_spectra.png", "mode_shapes.png")
+        with ResultSet(out_dir, owned=owned, kind="postcapture panel calibrate") as rs:
+            paths = [rs.write(fname, lambda p, t=text: Path(p).write_text(t, encoding="utf-8"))
+                     for fname, text in texts.items()]
+            if figures is not None:
+                for stem, fig in figures(self.plot_data()).items():
+                    paths.append(rs.write(f"{safe_stem(stem)}.png", lambda p, f=fig: f.savefig(p, format="png", dpi=120)))
+        logger.info("calibration of %s written to %s (%d files)", self.name, rs.folder, len(paths))
         return paths
 
 

@@ -2,7 +2,7 @@
 
 `write_bdf` writes the same model that `postcapture.panels.fem.solve_modes` solves (GRID per node,
 CQUAD4 per element, one PCOMP of MAT8 plies, SPC1 on the root, EIGRL with mass normalisation, SOL 103
-with the eigenvectors requested in the OP2), so users can run it in their Nastran. The solar-cell mass
+with the eigenvectors requested in the OP2, ``ENDDATA`` last), so users can run it in their Nastran. The solar-cell mass
 goes either into the density of the top ply, as the reference did, or onto the PCOMP as non-structural
 mass (NSM), because some open solvers mishandle per-ply densities in the PCOMP mass.
 
@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from postcapture.core.errors import MissingExtraError, NastranError, PanelModelError, Problem
+from postcapture.io import write_atomic
 from postcapture.panels.laminate import Laminate
 from postcapture.panels.mesh import PanelGeometry, PanelMesh, panel_mesh
 from postcapture.panels.modes import PanelModes
@@ -76,7 +77,8 @@ def write_bdf(path, geometry: PanelGeometry, laminate: Laminate, *, n_length: in
     Parameters
     ----------
     path : str or os.PathLike
-        Output file (``.bdf``/``.dat``), written in large-field format.
+        Output file (``.bdf``/``.dat``), written in large-field format, atomically (a regular file or
+        nothing there yet).
     geometry : PanelGeometry
         The panel, clamped on the edge ``x = 0``.
     laminate : Laminate
@@ -102,6 +104,8 @@ def write_bdf(path, geometry: PanelGeometry, laminate: Laminate, *, n_length: in
         If the mesh has no element, ``n_modes < 1`` or ``cell_mass_as`` is unknown.
     MissingExtraError
         If pyNastran is not installed.
+    OutputPathError
+        If ``path`` is not a regular file (a folder, a device, ...) or cannot be written.
     """
     problems = []
     if cell_mass_as not in CELL_MASS_OPTIONS:
@@ -149,7 +153,8 @@ def write_bdf(path, geometry: PanelGeometry, laminate: Laminate, *, n_length: in
         model.add_cquad4(e + 1, 1, [int(n) + 1 for n in quad], theta_mcid=0.0)
     model.add_spc1(1, "123456", [int(n) + 1 for n in mesh.root_nodes], comment=" root clamp")
     model.add_eigrl(1, nd=int(n_modes), norm="MASS")
-    model.write_bdf(os.fspath(path), size=16, is_double=False)
+    write_atomic(path, lambda tmp: model.write_bdf(tmp, size=16, is_double=False,
+                                                   enddata=True))  # MYSTRAN stops without ENDDATA
     logger.info("wrote %s: %d GRID, %d CQUAD4, %d MAT8, SOL 103", os.fspath(path), mesh.n_nodes,
                 mesh.n_elements, len(mids))
     return mesh

@@ -24,7 +24,8 @@ import numpy as np
 
 from postcapture.config.schema import Scenario
 from postcapture.fmi._extras import import_fmpy
-from postcapture.fmi.mapping import JacobianOutputs, Mapping
+from postcapture.fmi.mapping import JacobianOutputs, Mapping, mapping_sidecar
+from postcapture.io import check_output_file, write_atomic
 
 __all__ = ["ExportReport", "export_fmu"]
 
@@ -107,7 +108,7 @@ def export_fmu(
     scenario : Scenario, str or Path
         A scenario, or a built-in name or TOML path for :func:`postcapture.config.load_scenario`.
     out_path : str or Path
-        The ``.fmu`` file to write; the mapping goes next to it as ``<stem>.toml``.
+        The ``.fmu`` file to write; the mapping goes next to it as ``<stem>.mapping.toml``.
     variant : {"flexible", "stiff", "rigid"}
         Model variant (see :func:`postcapture.dynamics.assembly.assemble`).
     fmi_version : {2}
@@ -169,7 +170,8 @@ def export_fmu(
     step = float(step if step is not None else scenario.simulation.step)
     if not step > 0:
         raise ValueError(f"step: expected a positive number of seconds, found {step}")
-    out_path = Path(out_path)
+    out_path = check_output_file(out_path)
+    check_output_file(mapping_sidecar(out_path))
     ident = _identifier(model_identifier or f"{scenario.name}_{variant}")
     say("building the plant")
     system = build_system(scenario, variant, panel_segments=panel_segments, excitation=excitation)
@@ -243,8 +245,7 @@ def export_fmu(
         (root / "resources").mkdir(exist_ok=True)
         (root / MAPPING_RESOURCE).write_text(mapping.to_toml())
         zip_fmu(root, out_path)
-    mapping_path = out_path.with_suffix(".toml")
-    mapping_path.write_text(mapping.to_toml())
+    mapping_path = write_atomic(mapping_sidecar(out_path), lambda tmp: Path(tmp).write_text(mapping.to_toml()))
     total = time.perf_counter() - t_start
     logger.info(
         "exported %s in %.1f s (codegen %.1f s, compile %.1f s)", out_path, total, t_codegen, t_compile
