@@ -27,7 +27,12 @@ def plant(system):
 
 
 def _random_state(system, rng):
-    q = pin.randomConfiguration(system.model, -np.ones(system.nq), np.ones(system.nq))
+    """A generic state drawn from ``rng`` (Pinocchio's randomConfiguration has its own, unseeded)."""
+    q = np.zeros(system.nq)
+    q[:3] = rng.uniform(-1.0, 1.0, 3)
+    quat = rng.standard_normal(4)
+    q[3:7] = quat / np.linalg.norm(quat)
+    q[7:] = rng.uniform(-0.5, 0.5, system.nq - 7)
     return q, rng.standard_normal(system.nv) * 0.1
 
 
