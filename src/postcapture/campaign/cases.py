@@ -28,7 +28,7 @@ from postcapture.estimation.mass_filter import MassFilterTuning
 from postcapture.estimation.mekf import MEKFTuning
 from postcapture.sensors.profiles import SensorProfile
 
-__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "RECOMMENDED", "dual_config", "gyro_sample_sigma"]
+__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "RECOMMENDED", "default_cases", "dual_config", "gyro_sample_sigma"]
 
 
 @dataclass(frozen=True)
@@ -58,6 +58,15 @@ CASES = {
 }
 DEFAULT_CASES = ("dual", "joint", "ekf_flexible", "ekf_stiff", "mekf_flexible", "mekf_stiff")
 RECOMMENDED = ("dual", "joint")
+
+
+def default_cases(plant: str = "native") -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The default cases for a plant, and those left out: an FMU is one plant and gives the mass only (no
+    parameter Jacobians), so it runs the reference's dual schemes for the flexible model."""
+    if plant == "native":
+        return DEFAULT_CASES, ()
+    kept = tuple(c for c in DEFAULT_CASES if CASES[c].variant == "flexible" and CASES[c].scheme == "reference_dual")
+    return kept, tuple(c for c in DEFAULT_CASES if c not in kept)
 
 
 def gyro_sample_sigma(profile: SensorProfile) -> float:

@@ -133,7 +133,11 @@ def _save_run(folder: Path, result: dict) -> Path:
         meta["cases"][case] = {"diverged_at": c["diverged_at"], "message": c["message"]}
     arrays["meta"] = np.array(json.dumps(meta))
     path = folder / f"run_{result['run']:05d}.npz"
-    return write_atomic(path, lambda tmp: np.savez(open(tmp, "wb"), **arrays))
+    def write(tmp):
+        with open(tmp, "wb") as f:  # a file object: savez would append ".npz" to a temporary name
+            np.savez(f, **arrays)
+
+    return write_atomic(path, write)
 
 
 def _load_run(path: Path) -> dict:
@@ -434,6 +438,9 @@ def run_campaign(
         raise ScenarioError(problems)
     plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
                     initial_mass_error=initial_mass_error)
+    if scheduler is not None:
+        with _dask_client(scheduler, workers):  # an unreachable scheduler fails here, before any simulation
+            pass
     if crlb or any(CASES[c].scheme in ("dual", "joint") for c in plan.cases):
         plan = with_model_noise(plan)  # once, here: every run's filters share it
     if dispersed:

@@ -134,7 +134,7 @@ def derive_model_noise(plan: RunPlan, *, min_time: float = 10.0) -> float:
     nominal = simulate(plan.scenario, duration=plan.duration)
     finer = simulate(plan.scenario.with_panel_segments(n_seg), duration=plan.duration)
     steps = (nominal.t - nominal.t[0]) / plan.scenario.estimation.filter_step
-    late = nominal.t >= min_time
+    late = nominal.t >= min(min_time, 0.5 * plan.duration)
     drift = np.max(np.abs(finer["omega_BN_B"] - nominal["omega_BN_B"]), axis=0)
     return float(np.max(drift[late] ** 2 / steps[late]))
 

@@ -215,7 +215,7 @@ def _truth_options(check: Pass, args, scenario) -> None:
 
 def run(args) -> None:
     """``postcapture run``: scenario, every setting of the run (:func:`plan_run`), truth, FMU, output, resources."""
-    from postcapture.campaign.cases import DEFAULT_CASES
+    from postcapture.campaign.cases import default_cases
     from postcapture.campaign.setup import plan_run
     from postcapture.config.limits import estimate_run
 
@@ -231,7 +231,7 @@ def run(args) -> None:
             plant = "native"
         if args.map is not None:
             check.add("--map", "a mapping only with --plant fmu:FILE.fmu", args.map)
-    cases = args.cases or DEFAULT_CASES
+    cases = args.cases or default_cases(plant)[0]
     if scenario is not None:
         try:
             plan_run(scenario, profile=args.profile, duration=args.duration, cases=tuple(cases),

@@ -110,12 +110,11 @@ def cmd_simulate(args) -> int:
 
 def _fmu_cases(cases):
     """The cases an FMU plant runs, and a note when some default cases are left out."""
-    from postcapture.campaign.cases import CASES, DEFAULT_CASES
+    from postcapture.campaign.cases import default_cases
 
     if cases is not None:
         return cases, None
-    kept = tuple(c for c in DEFAULT_CASES if CASES[c].variant == "flexible" and CASES[c].scheme == "reference_dual")
-    skipped = [c for c in DEFAULT_CASES if c not in kept]
+    kept, skipped = default_cases("fmu")
     note = None
     if skipped:
         note = (f"--plant fmu: runs every case on the FMU's one plant, and an FMU gives the mass only (no "
