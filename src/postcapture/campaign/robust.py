@@ -118,24 +118,29 @@ def initial_state_sensitivity(model) -> np.ndarray:
 
 
 def derive_model_noise(plan: RunPlan, *, min_time: float = 10.0) -> float:
-    """Model-error process noise (per filter step, on every plant velocity) from the declared truth discretisation.
+    """Model-error process noise (per filter step, on every plant velocity) from what the truth declares itself to be.
 
-    The filters' panels have the nominal segments; the truth's may have ``truth_panel_segments``: a model
-    error no parameter describes. Both plants are simulated open loop at the nominal parameters under the
-    run's excitation, and the velocities get the random walk whose spread covers how far apart that
-    takes the chaser's body rates (what the gyro reads): ``q = max_t |d omega(t)|^2 / (t / dt)`` over
-    ``t >= min_time``. No declared discretisation (or the nominal one): no model noise.
+    The filters' model has the nominal panel segments and the scenario's integrator and step; the truth
+    may have ``truth_panel_segments`` and be integrated to ``simulation.tolerance``: a model error no
+    parameter describes. Both are simulated open loop at the nominal parameters under the scenario's
+    whole manoeuvre (its own duration, or the run's if longer: a shorter run gets the same noise), and the
+    velocities get the random walk whose spread covers how far apart that takes the chaser's body rates
+    (what the gyro reads): ``q = max_t |d omega(t)|^2 / (t / dt)`` over ``t >= min_time``. A truth declared
+    like the filters' model: no model noise.
     """
     from postcapture.dynamics.simulate import simulate
 
-    n_seg = plan.scenario.uncertainty.truth_panel_segments
-    if n_seg is None or all(p.segments == n_seg for _, p in plan.scenario.panels()):
+    sc = plan.scenario
+    n_seg = sc.uncertainty.truth_panel_segments
+    finer_panels = n_seg is not None and any(p.segments != n_seg for _, p in sc.panels())
+    if not finer_panels and sc.simulation.tolerance is None:
         return 0.0
-    nominal = simulate(plan.scenario, duration=plan.duration)
-    finer = simulate(plan.scenario.with_panel_segments(n_seg), duration=plan.duration)
-    steps = (nominal.t - nominal.t[0]) / plan.scenario.estimation.filter_step
-    late = nominal.t >= min(min_time, 0.5 * plan.duration)
-    drift = np.max(np.abs(finer["omega_BN_B"] - nominal["omega_BN_B"]), axis=0)
+    horizon = max(plan.duration, sc.simulation.duration)
+    filters = simulate(sc, duration=horizon, integrator=sc.simulation.integrator, step=sc.simulation.step)
+    truth = simulate(sc.with_panel_segments(n_seg) if finer_panels else sc, duration=horizon)
+    steps = (filters.t - filters.t[0]) / sc.estimation.filter_step
+    late = filters.t >= min(min_time, 0.5 * horizon)
+    drift = np.max(np.abs(truth["omega_BN_B"] - filters["omega_BN_B"]), axis=0)
     return float(np.max(drift[late] ** 2 / steps[late]))
 
 
@@ -217,7 +222,8 @@ def bound_with_model_error(plan: RunPlan, model_noise, progress=None):
     from postcapture.campaign.sensing import interval_mean_rate
 
     sc = plan.scenario
-    traj = simulate(sc, duration=plan.duration, parameters=plan.truth.parameters)
+    traj = simulate(sc, duration=plan.duration, parameters=plan.truth.parameters, integrator=sc.simulation.integrator,
+                    step=sc.simulation.step)  # the filters' own model: its estimate never leaves the truth
     t = traj.t
     ok = np.ones(t.size, dtype=bool)
     sensors = SensorSuite(

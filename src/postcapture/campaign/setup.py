@@ -89,8 +89,10 @@ def plan_run(
         problems.append(Problem("cases", "with an FMU plant, the reference's dual schemes only: the recommended "
                                          "schemes need the native model's parameter Jacobians", ", ".join(recommended)))
     est, sim = scenario.estimation, scenario.simulation
-    if abs(sim.sample_period - est.filter_step) > 1e-12 or abs(sim.step - est.filter_step) > 1e-12:
-        problems.append(Problem("estimation.filter_step", "equal to simulation.step and sample_period",
+    ratio = est.filter_step / sim.step
+    if abs(sim.sample_period - est.filter_step) > 1e-12 or abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        problems.append(Problem("estimation.filter_step", "equal to simulation.sample_period and a whole multiple of "
+                                "simulation.step (the filters' model step)",
                                 f"{est.filter_step} (step {sim.step}, samples {sim.sample_period})"))
     T = float(sim.duration if duration is None else duration)
     if not T >= MIN_FILTER_STEPS * est.filter_step:
