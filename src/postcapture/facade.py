@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-__all__ = ["load_scenario", "simulate", "run", "RunResult", "calibrate_panel", "export_fmu"]
+__all__ = ["load_scenario", "simulate", "run", "RunResult", "campaign", "calibrate_panel", "export_fmu"]
 
 
 def load_scenario(source="envisat"):
@@ -162,7 +162,20 @@ class RunResult:
                 f"{s['duration_s']:g} s; cases {', '.join(self.cases)})")
 
 
-def run(scenario="envisat", *, profile: str = "reference", duration: float | None = None,
+def _truth(nominal, truth):
+    """A :class:`~postcapture.dynamics.truth.TruthModel` from ``truth``: None (the nominal scenario), a seed
+    (a draw from the scenario's priors), a scenario, a name or a path (another scenario of the same structure)."""
+    from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, truth_from_scenario
+
+    if truth is None or isinstance(truth, TruthModel):
+        return truth
+    if isinstance(truth, int) and not isinstance(truth, bool):
+        check_priors(nominal)
+        return draw_truth(nominal, truth)
+    return truth_from_scenario(nominal, load_scenario(truth), str(truth))
+
+
+def run(scenario="envisat", *, truth=None, profile: str = "reference", duration: float | None = None,
         cases: Sequence[str] | None = None, seed: int | None = None, initial_mass_error: float | None = None,
         plant: str = "native", mapping: str | Path | None = None, workers: int = 2, crlb: bool = True,
         progress: Callable[[str, float], None] | None = None) -> RunResult:
@@ -173,17 +186,20 @@ def run(scenario="envisat", *, profile: str = "reference", duration: float | Non
     Parameters
     ----------
     scenario : Scenario, str or Path, optional
-        Default ``"envisat"``.
+        The filters' (nominal) scenario; default ``"envisat"``.
+    truth : int, Scenario, str, Path or TruthModel, optional
+        The simulated world: a seed draws it from the scenario's ``[uncertainty]``; a scenario (object,
+        name or path) of the same structure is taken as is; None is the nominal scenario itself.
     profile : {"reference", "realistic"}, optional
         Sensor profile and tuning.
     duration : float, optional
         Seconds (default: the scenario's).
     cases : sequence of str, optional
-        Case names (default: the reference's four dual schemes and the joint EKF).
+        Case names (default: the recommended dual and joint schemes and the reference's four).
     seed : int, optional
         Sensor-noise seed (default: the scenario's).
     initial_mass_error : float, optional
-        Added to the true mass to start the filters (kg; default: the scenario's).
+        Added to the nominal mass to start the filters (kg; default: the scenario's).
     plant : str, optional
         ``"native"`` or ``"fmu:PATH"``.
     mapping : str or Path, optional
@@ -209,7 +225,8 @@ def run(scenario="envisat", *, profile: str = "reference", duration: float | Non
     from postcapture.campaign.cases import DEFAULT_CASES
     from postcapture.campaign.main_job import run_main_job
 
-    result = run_main_job(load_scenario(scenario), profile=profile, duration=duration,
+    nominal = load_scenario(scenario)
+    result = run_main_job(nominal, truth=_truth(nominal, truth), profile=profile, duration=duration,
                           cases=tuple(cases) if cases is not None else DEFAULT_CASES, seed=seed,
                           initial_mass_error=initial_mass_error, plant=plant,
                           mapping=None if mapping is None else str(mapping), workers=workers, crlb=crlb,
@@ -217,8 +234,56 @@ def run(scenario="envisat", *, profile: str = "reference", duration: float | Non
     return RunResult(result)
 
 
-# campaign(...): the studies of many runs (issue 9) get their one-call entry here, next to run(), and a
-# name in __all__ and in postcapture/__init__.py.
+def campaign(scenario="envisat", *, runs: int, dispersed: bool = False, truth=None, profile: str = "realistic",
+             cases: Sequence[str] = ("dual", "joint"), duration: float | None = None,
+             initial_mass_error: float | None = None, scheduler: str | None = None, workers: int = 2,
+             out: str | Path | None = None, fresh: bool = False, crlb: bool = True,
+             progress: Callable[[str, int, int], None] | None = None):
+    """A Monte Carlo campaign on Dask (as ``postcapture campaign``).
+
+    Calls :func:`postcapture.campaign.montecarlo.run_campaign`.
+
+    Parameters
+    ----------
+    scenario : Scenario, str or Path, optional
+        The filters' (nominal) scenario, its priors and seed.
+    runs : int
+        Number of runs.
+    dispersed : bool, optional
+        Draw each run's truth from the scenario's ``[uncertainty]``.
+    truth : Scenario, str, Path or TruthModel, optional
+        One truth for every run (not with ``dispersed``).
+    profile, cases, duration, initial_mass_error : optional
+        As for :func:`run`.
+    scheduler : str, optional
+        A running Dask scheduler (``tcp://host:port``); a local cluster on 127.0.0.1 otherwise.
+    workers : int, optional
+        Worker processes of the local cluster (0: in this process, without Dask).
+    out : str or Path, optional
+        Folder of the saved runs: a campaign started again there resumes.
+    fresh : bool, optional
+        Discard saved runs instead of resuming.
+    crlb : bool, optional
+        Also compute the mass bounds.
+    progress : callable(message, done, total), optional
+
+    Returns
+    -------
+    CampaignResult
+        ``.summary()``, ``.to_xarray()`` (run x case x time), ``.runs``.
+
+    Examples
+    --------
+    >>> res = campaign("envisat", runs=2, dispersed=True, cases=["dual"], duration=3.0, workers=0, crlb=False)
+    >>> res.summary()["runs"], sorted(res.to_xarray()["mass_error"].dims)
+    (2, ['case', 'run', 'time'])
+    """
+    from postcapture.campaign.montecarlo import run_campaign
+
+    nominal = load_scenario(scenario)
+    return run_campaign(nominal, runs=runs, dispersed=dispersed, truth=_truth(nominal, truth), profile=profile,
+                        cases=tuple(cases), duration=duration, initial_mass_error=initial_mass_error,
+                        scheduler=scheduler, workers=workers, out=out, fresh=fresh, crlb=crlb, progress=progress)
 
 
 def calibrate_panel(panel="envisat", *, segments: int = 5, weights: Sequence[float] = (1.0, 10.0, 0.1),
