@@ -83,11 +83,11 @@ def _grids(sensors: SensorSuite, t_grid):
     return star, gyro, z
 
 
-def _finish(name, rec: _Recorder, t_grid, labels, counts, events, filt, wall0, m_err):
+def _finish(name, rec: _Recorder, t_grid, labels, counts, events, filt, wall0):
     diverged = [e.t for evs in events.values() for e in evs if e.kind == "diverged"]
     message = "completed" if not diverged else f"diverged at t = {min(diverged):.6g} s and re-initialised"
-    for t_d in diverged:
-        rec.flags[int(np.searchsorted(t_grid, t_d))  :][:1] |= np.uint8(int(StepFlag.DIVERGED))
+    for t_d in diverged:  # marked where it happened; the filter went on
+        rec.flags[min(int(np.searchsorted(t_grid, t_d)), t_grid.size - 1)] |= np.uint8(int(StepFlag.DIVERGED))
     history = EstimateHistory(
         filter_name=name, t=t_grid, q_BN=rec.q, P=rec.P, nis=rec.nis, flags=rec.flags, error_labels=labels,
         states={"mass": rec.mass[None, :], "mass_sigma": rec.mass_sigma[None, :]}, counts=counts,
@@ -114,38 +114,7 @@ def run_joint_scheme(filt, sensors: SensorSuite, t_grid, *, R_gyro, R_star, R_ac
     panel_mass : float
         The target's panels' mass (kg), added to the hub's to give the total target mass.
     """
-    wall0 = time.perf_counter()
-    t_grid = np.asarray(t_grid, dtype=float)
-    n_t, dt = t_grid.size, float(t_grid[1] - t_grid[0])
-    star, gyro, z = _grids(sensors, t_grid)
-    Rz = np.diag(R_accel)
-    att = filt.att
-    sel = np.r_[np.arange(att.start, att.stop), np.arange(filt.i_bg.start, filt.i_bg.stop)]
-    rec = _Recorder(n_t, len(filt.model.param_names), 6)
-
-    def record(k):
-        rec.q[:, k] = filt.q_BN
-        rec.P[..., k] = filt.P[np.ix_(sel, sel)]
-        rec.parameters(k, filt, panel_mass)
-
-    record(0)
-    for k in range(n_t - 1):
-        t, t1 = t_grid[k], t_grid[k + 1]
-        filt.predict(t, dt)
-        r = filt.update(Measurement("gyro", t1, gyro[:, k], R_gyro))
-        rec.flag(k + 1, r, StepFlag.INPUT_MISSING)
-        r = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
-        rec.flag(k + 1, r)
-        if r is not None and r.accepted:
-            rec.nis[k + 1] = r.nis
-        r = filt.update(Measurement("accelerations", t1, z[:, k + 1], Rz))
-        if r is not None and r.accepted:
-            rec.mass_nis[k + 1] = r.nis
-        record(k + 1)
-        if progress is not None and k % 50 == 0:
-            progress((k + 1) / (n_t - 1))
-    labels = ("dtheta_x", "dtheta_y", "dtheta_z", "dbias_x", "dbias_y", "dbias_z")
-    return _finish(name, rec, t_grid, labels, dict(filt.counts), {name: list(filt.events)}, filt, wall0, 6)
+    return _run(None, filt, sensors, t_grid, R_gyro, R_star, R_accel, panel_mass, progress, name)
 
 
 def run_dual_scheme(mekf, filt, sensors: SensorSuite, t_grid, *, R_gyro, R_accel, panel_mass: float,
@@ -153,18 +122,27 @@ def run_dual_scheme(mekf, filt, sensors: SensorSuite, t_grid, *, R_gyro, R_accel
     """Run the MEKF beside an AugmentedEKF without a gyro bias (see the module docstring).
 
     Parameters are those of :func:`run_joint_scheme`; ``mekf`` is a
-    :class:`~postcapture.estimation.mekf.MEKF` (gyro-driven, star-tracker corrected).
+    :class:`~postcapture.estimation.mekf.MEKF` (gyro-driven, star-tracker corrected), whose own star-tracker
+    covariance is used.
     """
+    return _run(mekf, filt, sensors, t_grid, R_gyro, mekf.tuning.star_covariance, R_accel, panel_mass, progress,
+                name)
+
+
+def _run(mekf, filt, sensors, t_grid, R_gyro, R_star, R_accel, panel_mass, progress, name) -> SchemeResult:
+    """One loop for both schemes: with ``mekf`` the attitude comes from it and the gyro reaches ``filt``
+    corrected by its bias; without, ``filt`` reads the gyro and the star tracker itself."""
     wall0 = time.perf_counter()
     t_grid = np.asarray(t_grid, dtype=float)
     n_t, dt = t_grid.size, float(t_grid[1] - t_grid[0])
     star, gyro, z = _grids(sensors, t_grid)
     Rz = np.diag(R_accel)
     rec = _Recorder(n_t, len(filt.model.param_names), 6)
+    sel = np.r_[np.arange(filt.att.start, filt.att.stop), np.arange(filt.i_bg.start, filt.i_bg.stop)]
 
     def record(k):
-        rec.q[:, k] = mekf.q_BN
-        rec.P[..., k] = mekf.P
+        rec.q[:, k] = filt.q_BN if mekf is None else mekf.q_BN
+        rec.P[..., k] = filt.P[np.ix_(sel, sel)] if mekf is None else mekf.P
         rec.parameters(k, filt, panel_mass)
 
     record(0)
@@ -172,19 +150,25 @@ def run_dual_scheme(mekf, filt, sensors: SensorSuite, t_grid, *, R_gyro, R_accel
     for k in range(n_t - 1):
         t, t1 = t_grid[k], t_grid[k + 1]
         w = gyro[:, k]
-        if np.all(np.isfinite(w)):
-            last = w
+        if mekf is None:
+            filt.predict(t, dt)
+            r = filt.update(Measurement("gyro", t1, w, R_gyro))
+            rec.flag(k + 1, r, StepFlag.INPUT_MISSING)
+            r = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
         else:
-            rec.flags[k + 1] |= StepFlag.INPUT_MISSING
-        bias, P_b = mekf.bias_B.copy(), mekf.P[3:, 3:].copy()
-        if last is not None:
-            mekf.predict(t, dt, last)
-        r = mekf.update(Measurement("star_tracker", t1, star[:, k + 1], mekf.tuning.star_covariance))
+            if np.all(np.isfinite(w)):
+                last = w
+            else:
+                rec.flags[k + 1] |= StepFlag.INPUT_MISSING
+            bias, P_b = mekf.bias_B.copy(), mekf.P[3:, 3:].copy()
+            if last is not None:
+                mekf.predict(t, dt, last)
+            r = mekf.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
+            filt.predict(t, dt)
+            filt.update(Measurement("gyro", t1, w - bias, R_gyro + P_b))
         rec.flag(k + 1, r)
         if r is not None and r.accepted:
             rec.nis[k + 1] = r.nis
-        filt.predict(t, dt)
-        filt.update(Measurement("gyro", t1, w - bias, R_gyro + P_b))
         r = filt.update(Measurement("accelerations", t1, z[:, k + 1], Rz))
         if r is not None and r.accepted:
             rec.mass_nis[k + 1] = r.nis
@@ -192,6 +176,7 @@ def run_dual_scheme(mekf, filt, sensors: SensorSuite, t_grid, *, R_gyro, R_accel
         if progress is not None and k % 50 == 0:
             progress((k + 1) / (n_t - 1))
     labels = ("dtheta_x", "dtheta_y", "dtheta_z", "dbias_x", "dbias_y", "dbias_z")
-    counts = {key: mekf.counts.get(key, 0) + filt.counts.get(key, 0) for key in set(mekf.counts) | set(filt.counts)}
-    events = {mekf.name: list(mekf.events), filt.name: list(filt.events)}
-    return _finish(name, rec, t_grid, labels, counts, events, filt, wall0, 6)
+    filters = [filt] if mekf is None else [mekf, filt]
+    counts = {key: sum(f.counts.get(key, 0) for f in filters) for f in filters for key in f.counts}
+    events = {f.name: list(f.events) for f in filters}
+    return _finish(name, rec, t_grid, labels, counts, events, filt, wall0)
