@@ -17,11 +17,6 @@ called, so ``import postcapture`` stays light:
 - :func:`export_fmu`: the plant as an FMI 2.0 co-simulation FMU.
 """
 
-# The subpackage postcapture.campaign is loaded before the facade's function of the same name is bound:
-# Python sets a package attribute when a subpackage is first imported, which would otherwise replace
-# pc.campaign by the module the first time anything imports from it. The subpackage stays reachable
-# through its submodules (import postcapture.campaign.montecarlo).
-import postcapture.campaign as _campaign_package  # noqa: F401  (light: its __init__ imports nothing)
 from postcapture._blas import limit_blas_threads
 from postcapture._version import __version__
 from postcapture.facade import RunResult, calibrate_panel, campaign, export_fmu, load_scenario, run, simulate

@@ -138,9 +138,9 @@ class RunResult:
     def to_xarray(self):
         """Every history (truth and estimates, time last) as an :class:`xarray.Dataset` with units.
 
-        The same dataset ``results.nc`` holds; see :func:`postcapture.campaign.results.to_dataset`.
+        The same dataset ``results.nc`` holds; see :func:`postcapture.studies.results.to_dataset`.
         """
-        from postcapture.campaign.results import to_dataset
+        from postcapture.studies.results import to_dataset
 
         return to_dataset(self.result)
 
@@ -152,7 +152,7 @@ class RunResult:
 
     def write(self, out_dir, *, figures: bool = True) -> dict:
         """Write ``results.nc``, ``summary.json``, ``table.txt`` and the figures; returns the paths."""
-        from postcapture.campaign.results import write_results
+        from postcapture.studies.results import write_results
 
         return write_results(self.result, out_dir, figures=figures)
 
@@ -181,7 +181,7 @@ def run(scenario="envisat", *, truth=None, profile: str = "reference", duration:
         progress: Callable[[str, float], None] | None = None) -> RunResult:
     """The main job: truth, sensors, the estimation cases, metrics (as ``postcapture run``).
 
-    Calls :func:`postcapture.campaign.main_job.run_main_job`.
+    Calls :func:`postcapture.studies.main_job.run_main_job`.
 
     Parameters
     ----------
@@ -222,8 +222,8 @@ def run(scenario="envisat", *, truth=None, profile: str = "reference", duration:
     >>> result.to_xarray()["mass_est"].dims
     ('case', 'time')
     """
-    from postcapture.campaign.cases import DEFAULT_CASES
-    from postcapture.campaign.main_job import run_main_job
+    from postcapture.studies.cases import DEFAULT_CASES
+    from postcapture.studies.main_job import run_main_job
 
     nominal = load_scenario(scenario)
     result = run_main_job(nominal, truth=_truth(nominal, truth), profile=profile, duration=duration,
@@ -241,7 +241,7 @@ def campaign(scenario="envisat", *, runs: int, dispersed: bool = False, truth=No
              progress: Callable[[str, int, int], None] | None = None):
     """A Monte Carlo campaign on Dask (as ``postcapture campaign``).
 
-    Calls :func:`postcapture.campaign.montecarlo.run_campaign`.
+    Calls :func:`postcapture.studies.montecarlo.run_campaign`.
 
     Parameters
     ----------
@@ -278,7 +278,7 @@ def campaign(scenario="envisat", *, runs: int, dispersed: bool = False, truth=No
     >>> res.summary()["runs"], sorted(res.to_xarray()["mass_error"].dims)
     (2, ['case', 'run', 'time'])
     """
-    from postcapture.campaign.montecarlo import run_campaign
+    from postcapture.studies.montecarlo import run_campaign
 
     nominal = load_scenario(scenario)
     return run_campaign(nominal, runs=runs, dispersed=dispersed, truth=_truth(nominal, truth), profile=profile,

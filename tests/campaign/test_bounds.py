@@ -5,8 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from postcapture.campaign.robust import bound_with_model_error, mass_bounds
-from postcapture.campaign.setup import plan_run
+from postcapture.studies.robust import bound_with_model_error, mass_bounds
+from postcapture.studies.setup import plan_run
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,7 @@
 
 import pytest
 
-from postcapture.campaign.main_job import run_main_job
+from postcapture.studies.main_job import run_main_job
 
 
 @pytest.mark.slow

@@ -5,7 +5,7 @@ import time
 
 import pytest
 
-from postcapture.campaign.pool import run_jobs
+from postcapture.studies.pool import run_jobs
 from postcapture.core.errors import FilterDivergenceError, Problem, ScenarioError, WorkerError
 
 

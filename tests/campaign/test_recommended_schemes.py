@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from postcapture.campaign.main_job import run_main_job
-from postcapture.campaign.montecarlo import run_campaign
+from postcapture.studies.main_job import run_main_job
+from postcapture.studies.montecarlo import run_campaign
 from postcapture.config import scenario_from_dict
 from postcapture.core.units import DEG_PER_HOUR
 from postcapture.dynamics.truth import draw_truth

@@ -8,9 +8,9 @@ import signal
 import numpy as np
 import pytest
 
-from postcapture.campaign.main_job import run_main_job
-from postcapture.campaign.montecarlo import run_campaign
-from postcapture.campaign.sensing import measure_all, resolve_profile
+from postcapture.studies.main_job import run_main_job
+from postcapture.studies.montecarlo import run_campaign
+from postcapture.studies.sensing import measure_all, resolve_profile
 from postcapture.config import scenario_from_dict
 from postcapture.core.errors import ScenarioError
 from postcapture.core.units import DEG_PER_HOUR
@@ -222,7 +222,7 @@ def test_an_interrupted_campaign_resumes_and_merges_to_the_same_results(envisat,
 
 
 def test_campaign_summary_and_files(envisat, tmp_path):
-    from postcapture.campaign.results import write_campaign
+    from postcapture.studies.results import write_campaign
 
     res = run_campaign(envisat, runs=3, cases=("mekf_flexible", "ekf_flexible"), duration=5.0, workers=0, crlb=False)
     s = res.summary()

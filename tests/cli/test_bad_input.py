@@ -35,7 +35,7 @@ def assert_one_message(code, out, err, *needles, status=1):
 @pytest.fixture
 def no_work(monkeypatch):
     """Fail the test if a truth simulation or a model build starts."""
-    import postcapture.campaign.main_job as main_job
+    import postcapture.studies.main_job as main_job
     import postcapture.dynamics.simulate as simulate
 
     def refuse(*args, **kwargs):
@@ -203,7 +203,7 @@ def test_mutated_scenarios_through_the_cli(capsys, raw):
 
 # ------------------------------------------------------------------ internal errors: short report, -v for more
 def test_internal_error_is_a_short_report(capsys, monkeypatch, tmp_path):
-    import postcapture.campaign.main_job as main_job
+    import postcapture.studies.main_job as main_job
 
     def bug(*args, **kwargs):
         return {}["missing"]
@@ -218,7 +218,7 @@ def test_internal_error_is_a_short_report(capsys, monkeypatch, tmp_path):
 
 
 def test_worker_bug_reports_the_workers_traceback_with_v(capsys, monkeypatch, tmp_path):
-    import postcapture.campaign.main_job as main_job
+    import postcapture.studies.main_job as main_job
 
     def worker_bug(*args, **kwargs):
         raise WorkerError("_run_case(ekf_flexible)", "KeyError", "'x'", "Traceback (worker)\n  KeyError: 'x'\n")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from postcapture.campaign.results import RUN_FILES
+from postcapture.studies.results import RUN_FILES
 from postcapture.io import ResultSet
 from postcapture.io.atomic import TAG
 

@@ -40,7 +40,7 @@ def test_verbose_logs_phases_and_each_case(capsys, caplog, tmp_path):
 
 
 def test_an_fmu_plant_says_which_cases_it_skips(capsys, tmp_path, monkeypatch):
-    import postcapture.campaign.main_job as main_job
+    import postcapture.studies.main_job as main_job
     from postcapture.cli import checks
     from postcapture.core.errors import FMIError
 

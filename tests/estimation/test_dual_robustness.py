@@ -6,10 +6,10 @@ import logging
 import numpy as np
 import pytest
 
-from postcapture.campaign.cases import CASES, dual_config
-from postcapture.campaign.main_job import initial_state_and_sensitivity
-from postcapture.campaign.sensing import measure_all, resolve_profile
-from postcapture.campaign.tuning import resolve_tuning
+from postcapture.studies.cases import CASES, dual_config
+from postcapture.studies.main_job import initial_state_and_sensitivity
+from postcapture.studies.sensing import measure_all, resolve_profile
+from postcapture.studies.tuning import resolve_tuning
 from postcapture.core import rotations as rot
 from postcapture.core.errors import FilterDivergenceError
 from postcapture.dynamics.build import build_system

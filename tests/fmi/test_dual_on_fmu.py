@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from postcapture.campaign.main_job import run_main_job
+from postcapture.studies.main_job import run_main_job
 
 
 def test_dual_ekf_on_fmu_matches_native(envisat, envisat_fmu):

@@ -18,8 +18,8 @@ from matplotlib.collections import PolyCollection
 from matplotlib.colors import to_hex
 from matplotlib.lines import Line2D
 
-from postcapture.campaign.main_job import run_main_job
-from postcapture.campaign.results import to_dataset, write_results
+from postcapture.studies.main_job import run_main_job
+from postcapture.studies.results import to_dataset, write_results
 from postcapture.core import rotations as rot
 from postcapture.report.attitude import align_to, sign_continuous
 from postcapture.report.figures import FIGURES, main_job_figures

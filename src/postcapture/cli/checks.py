@@ -35,7 +35,7 @@ OPTION_FIELDS = {
 
 PLAN_FIELDS = {"duration": "--duration", "initial_mass_error": "--initial-mass-error", "cases": "--cases",
                "plant": "--plant", "profile": "--profile", "seed": "--seed"}
-"""Settings of :func:`postcapture.campaign.setup.plan_run` and the options that give them."""
+"""Settings of :func:`postcapture.studies.setup.plan_run` and the options that give them."""
 
 
 class Pass:
@@ -215,8 +215,8 @@ def _truth_options(check: Pass, args, scenario) -> None:
 
 def run(args) -> None:
     """``postcapture run``: scenario, every setting of the run (:func:`plan_run`), truth, FMU, output, resources."""
-    from postcapture.campaign.cases import default_cases
-    from postcapture.campaign.setup import plan_run
+    from postcapture.studies.cases import default_cases
+    from postcapture.studies.setup import plan_run
     from postcapture.config.limits import estimate_run
 
     check = Pass("run")

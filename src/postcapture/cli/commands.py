@@ -110,7 +110,7 @@ def cmd_simulate(args) -> int:
 
 def _fmu_cases(cases):
     """The cases an FMU plant runs, and a note when some default cases are left out."""
-    from postcapture.campaign.cases import default_cases
+    from postcapture.studies.cases import default_cases
 
     if cases is not None:
         return cases, None
@@ -126,9 +126,9 @@ def _fmu_cases(cases):
 
 def cmd_run(args) -> int:
     checks.run(args)  # everything given, checked before any work
-    from postcapture.campaign.cases import DEFAULT_CASES
-    from postcapture.campaign.main_job import run_main_job
-    from postcapture.campaign.results import write_results
+    from postcapture.studies.cases import DEFAULT_CASES
+    from postcapture.studies.main_job import run_main_job
+    from postcapture.studies.results import write_results
     from postcapture.config import load_scenario
     from postcapture.report.table import results_table
 
@@ -195,8 +195,8 @@ def _truth(args, scenario):
 
 def cmd_campaign(args) -> int:
     checks.campaign(args)  # everything given, checked before any work
-    from postcapture.campaign.montecarlo import run_campaign
-    from postcapture.campaign.results import write_campaign
+    from postcapture.studies.montecarlo import run_campaign
+    from postcapture.studies.results import write_campaign
     from postcapture.config import load_scenario
     from postcapture.report.campaign import campaign_table
 
@@ -310,7 +310,7 @@ def cmd_bench(args) -> int:
     checks.bench(args)  # everything given, checked before any work
     if args.accuracy:
         return cmd_accuracy(args)
-    from postcapture.campaign.bench import run_benchmark
+    from postcapture.studies.bench import run_benchmark
 
     with _display(args, "bench") as shown:
         result = run_benchmark(args.scenario, duration=args.duration, progress=shown.phase)
@@ -332,7 +332,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_accuracy(args) -> int:
-    from postcapture.campaign.accuracy import integrator_accuracy
+    from postcapture.studies.accuracy import integrator_accuracy
 
     with _display(args, "bench --accuracy") as shown:
         result = integrator_accuracy(args.scenario, duration=args.duration, task_progress=shown.task)

@@ -42,7 +42,7 @@ def _single_threaded() -> None:
 
 
 def _cases(text: str) -> tuple[str, ...]:
-    from postcapture.campaign.cases import CASES
+    from postcapture.studies.cases import CASES
 
     names = tuple(x.strip() for x in text.split(",") if x.strip())
     bad = [n for n in names if n not in CASES]

@@ -4,7 +4,7 @@ Sensor profiles are built in (:mod:`postcapture.sensors.profiles`: ``reference``
 scenario may override any of their numbers under ``[estimation.sensors.<profile>.<sensor>]``, and any
 filter tuning under ``[estimation.tuning.<profile>]``. A tuning left out is derived from the profile's
 sensors, the target's nominal mass and the declared ``[uncertainty]`` (see
-:func:`postcapture.campaign.tuning.resolve_tuning`, which documents every default).
+:func:`postcapture.studies.tuning.resolve_tuning`, which documents every default).
 """
 
 from __future__ import annotations

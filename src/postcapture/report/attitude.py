@@ -7,7 +7,7 @@
 - :func:`attitude_error_figure` (the reference's figure 4b): one case's error per body axis within
   the filter's own 3-sigma envelope.
 
-Both read a results dataset (``postcapture.campaign.results.to_dataset``).
+Both read a results dataset (``postcapture.studies.results.to_dataset``).
 """
 
 from __future__ import annotations

@@ -47,7 +47,7 @@ def main_job_figures(ds) -> dict[str, Figure]:
     Parameters
     ----------
     ds : xarray.Dataset
-        A main-job results dataset (``postcapture.campaign.results.to_dataset``, or ``results.nc``).
+        A main-job results dataset (``postcapture.studies.results.to_dataset``, or ``results.nc``).
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """How the cases of a results dataset are grouped into panels, labelled and titled; display smoothing.
 
-The figures read the :class:`xarray.Dataset` that ``postcapture.campaign.results.to_dataset`` builds
+The figures read the :class:`xarray.Dataset` that ``postcapture.studies.results.to_dataset`` builds
 (and ``results.nc`` stores): so a figure can be redrawn from the file alone.
 """
 

@@ -5,7 +5,7 @@
 - :func:`mass_error_figure`: the signed error (linear), and its moving RMS on a log scale, so that
   converged errors read as decades without the spikes of ``|error|`` at every zero crossing.
 
-Both read a results dataset (``postcapture.campaign.results.to_dataset``).
+Both read a results dataset (``postcapture.studies.results.to_dataset``).
 """
 
 from __future__ import annotations

@@ -145,7 +145,7 @@ def run_benchmark(
         say(f"prediction with every Jacobian, N = {n}")
         out[f"predict_ms_n{n}"] = _predict_ms(scenario, n)
     if main_job:
-        from postcapture.campaign.main_job import run_main_job
+        from postcapture.studies.main_job import run_main_job
 
         say("main job (default)")
         t0 = time.perf_counter()

@@ -53,7 +53,7 @@ def worker_signals() -> None:
 
 
 def dask_setup(worker) -> None:
-    """Dask's preload hook: a worker of a local cluster (``preload=["postcapture.campaign.pool"]``) leaves
+    """Dask's preload hook: a worker of a local cluster (``preload=["postcapture.studies.pool"]``) leaves
     Ctrl-C to the parent, as the case pool's workers do (no KeyboardInterrupt traceback from each).
 
     Its own Dask logging is kept to critical messages: a task's error reaches the parent with the task,

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postcapture.campaign.cases import CASES
+from postcapture.studies.cases import CASES
 from postcapture.core import rotations as rot
 from postcapture.io import ResultSet
 

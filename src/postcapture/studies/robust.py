@@ -19,7 +19,7 @@ import dataclasses
 
 import numpy as np
 
-from postcapture.campaign.setup import RunPlan
+from postcapture.studies.setup import RunPlan
 from postcapture.config.uncertainty import Prior
 from postcapture.dynamics.parameters import dynamic_parameters, mass_properties
 from postcapture.dynamics.truth import draw_parameters
@@ -212,14 +212,14 @@ def bound_with_model_error(plan: RunPlan, model_noise, progress=None):
     its estimate never leaves the truth and its covariance is the bound. Returns the SchemeResult (its
     ``mass_sigma`` is the bound over time).
     """
-    from postcapture.campaign.cases import gyro_sample_sigma
+    from postcapture.studies.cases import gyro_sample_sigma
     from postcapture.dynamics.build import build_system
     from postcapture.dynamics.process_model import NativeProcessModel
     from postcapture.dynamics.simulate import simulate
     from postcapture.estimation.dual import SensorSuite
     from postcapture.estimation.schemes import run_joint_scheme
     from postcapture.sensors.record import Measurements
-    from postcapture.campaign.sensing import interval_mean_rate
+    from postcapture.studies.sensing import interval_mean_rate
 
     sc = plan.scenario
     traj = simulate(sc, duration=plan.duration, parameters=plan.truth.parameters, integrator=sc.simulation.integrator,
@@ -270,7 +270,7 @@ def mass_bounds(plan: RunPlan, progress=None) -> dict:
     model error (the process noise the filters use, :func:`bound_with_model_error`; the same as
     ``parameters`` when there is none). All on the truth's model and noise.
     """
-    from postcapture.campaign.cases import gyro_sample_sigma
+    from postcapture.studies.cases import gyro_sample_sigma
     from postcapture.dynamics.process_model import NativeProcessModel
     from postcapture.estimation.crlb import mass_crlb
 

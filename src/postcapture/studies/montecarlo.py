@@ -32,10 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from postcapture.campaign.cases import CASES
-from postcapture.campaign.main_job import draw_sensors, run_case, simulate_truth
-from postcapture.campaign.robust import with_model_noise
-from postcapture.campaign.setup import RunPlan, plan_run
+from postcapture.studies.cases import CASES
+from postcapture.studies.main_job import draw_sensors, run_case, simulate_truth
+from postcapture.studies.robust import with_model_noise
+from postcapture.studies.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
 from postcapture.core.consistency import chi2_bounds
@@ -359,7 +359,7 @@ def _dask_client(scheduler: str | None, workers: int):
         if scheduler is None:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                    dashboard_address=":0", silence_logs=logging.ERROR,
-                                   preload=["postcapture.campaign.pool"])  # workers leave Ctrl-C to us
+                                   preload=["postcapture.studies.pool"])  # workers leave Ctrl-C to us
             client = Client(cluster)
         else:
             try:
@@ -407,7 +407,7 @@ def run_campaign(
     truth : TruthModel, optional
         The one truth of a campaign that is not dispersed (the nominal scenario by default).
     profile, cases, duration, initial_mass_error
-        As for :func:`postcapture.campaign.main_job.run_main_job`.
+        As for :func:`postcapture.studies.main_job.run_main_job`.
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://host:port``); a local cluster otherwise.
     workers : int
@@ -497,6 +497,6 @@ def run_campaign(
 
 def _crlb(plan: RunPlan):
     """The mass Cramer-Rao bounds on the plan's (nominal) truth model and noise (known model, with nuisance)."""
-    from postcapture.campaign.robust import mass_bounds
+    from postcapture.studies.robust import mass_bounds
 
     return mass_bounds(plan)

@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from postcapture.campaign.cases import CASES, DEFAULT_CASES, dual_config, gyro_sample_sigma
-from postcapture.campaign.metrics import ARCSEC, case_metrics
-from postcapture.campaign.pool import run_jobs
-from postcapture.campaign.sensing import measure_all
-from postcapture.campaign.setup import RunPlan, plan_run
+from postcapture.studies.cases import CASES, DEFAULT_CASES, dual_config, gyro_sample_sigma
+from postcapture.studies.metrics import ARCSEC, case_metrics
+from postcapture.studies.pool import run_jobs
+from postcapture.studies.sensing import measure_all
+from postcapture.studies.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
 from postcapture.core.errors import CovarianceError, DomainError, FilterDivergenceError, SimulationError
@@ -175,7 +175,7 @@ def _run_case_unguarded(plan: RunPlan, case: str, sensors, q0_true, dq0, progres
 
 def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
     """The recommended dual or joint scheme (:mod:`postcapture.estimation.schemes`)."""
-    from postcapture.campaign.robust import build_augmented
+    from postcapture.studies.robust import build_augmented
     from postcapture.estimation.mekf import MEKF
     from postcapture.estimation.schemes import run_dual_scheme, run_joint_scheme
 
@@ -200,7 +200,7 @@ def _run_case(job: dict, progress=None):
 
 
 def _run_crlb(job: dict, progress=None):
-    from postcapture.campaign.robust import mass_bounds
+    from postcapture.studies.robust import mass_bounds
 
     return "crlb", mass_bounds(job["plan"], progress)
 
@@ -229,11 +229,11 @@ def run_main_job(
     truth : TruthModel, optional
         The simulated world (:mod:`postcapture.dynamics.truth`); the nominal scenario by default.
     profile : {"reference", "realistic"}
-        Sensor profile and tuning policy (see :mod:`postcapture.campaign.tuning`).
+        Sensor profile and tuning policy (see :mod:`postcapture.studies.tuning`).
     duration : float, optional
         Seconds (default: the scenario's).
     cases : sequence of str
-        Case names among :data:`postcapture.campaign.cases.CASES`.
+        Case names among :data:`postcapture.studies.cases.CASES`.
     initial_mass_error : float, optional
         Added to the nominal mass to start the mass estimates (default: the scenario's, -100 kg).
     seed : int, optional
@@ -254,12 +254,12 @@ def run_main_job(
     Raises
     ------
     ScenarioError
-        For any bad setting, before anything is simulated (see :func:`postcapture.campaign.setup.plan_run`).
+        For any bad setting, before anything is simulated (see :func:`postcapture.studies.setup.plan_run`).
     """
     plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
                     initial_mass_error=initial_mass_error, seed=seed, plant=plant, mapping=mapping)
     if crlb or any(CASES[c].scheme in ("dual", "joint") for c in plan.cases):
-        from postcapture.campaign.robust import with_model_noise
+        from postcapture.studies.robust import with_model_noise
 
         plan = with_model_noise(plan)
     wall0 = time.perf_counter()

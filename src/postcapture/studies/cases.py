@@ -1,7 +1,7 @@
 """The main job's estimation cases and how each is configured from the resolved tunings.
 
 Cases: the reference's four dual schemes {EKF, MEKF} x {flexible, stiff (k = 1e7) filter model}, and
-the joint EKF on the flexible model. Tunings come from :mod:`postcapture.campaign.tuning`:
+the joint EKF on the flexible model. Tunings come from :mod:`postcapture.studies.tuning`:
 
 - ``reference`` profile: the reference's attitude EKF (R = 0.01^2 I3, Q = 0.0007^2 I3, P0 = 0.02^2 I3),
   its mass filter (R_theta = diag(1e-4 I3, 1e-2 I7), q from 20.1 to 0.1, sigmoid c = 0.001, a = 9000,
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from postcapture.campaign.tuning import ResolvedTuning, sigmoid_prior_variance
+from postcapture.studies.tuning import ResolvedTuning, sigmoid_prior_variance
 from postcapture.core.sigmoid import SigmoidMap
 from postcapture.estimation.attitude_ekf import AttitudeEKFTuning
 from postcapture.estimation.dual import DualConfig

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from postcapture.campaign.cases import CASES
-from postcapture.campaign.sensing import resolve_profile
-from postcapture.campaign.tuning import ResolvedTuning, resolve_tuning
+from postcapture.studies.cases import CASES
+from postcapture.studies.sensing import resolve_profile
+from postcapture.studies.tuning import ResolvedTuning, resolve_tuning
 from postcapture.config.schema import Scenario, fault_problems
 from postcapture.core.errors import Problem, ScenarioError
 from postcapture.dynamics.truth import TruthModel, nominal_truth
