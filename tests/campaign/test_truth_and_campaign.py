@@ -239,3 +239,8 @@ def test_campaign_summary_and_files(envisat, tmp_path):
     assert ds["mass_error"].shape == (3, 2, 51) and ds["truth"].shape[0] == 3
     assert json.loads(ds.attrs["summary_json"])["runs"] == 3
     ds.close()
+    from postcapture.report.campaign import campaign_figures
+
+    for fig in campaign_figures(xr.open_dataset(paths["results"]).load(), s).values():
+        title = fig._suptitle.get_text()
+        assert "envisat" in title and "realistic profile" in title and f"seeds ({envisat.estimation.seed}, r)" in title, title

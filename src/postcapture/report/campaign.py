@@ -66,7 +66,9 @@ def campaign_table(summary: dict) -> str:
 
 def _title(summary: dict, what: str) -> str:
     kind = "dispersed truths" if summary.get("dispersed") else "one truth"
-    return f"{what}: {summary.get('scenario')}, {summary.get('profile')} profile, {summary['runs']} runs ({kind})"
+    seeds = f", seeds ({summary['seed']}, r)" if summary.get("seed") is not None else ""
+    return (f"{what}: {summary.get('scenario')}, {summary.get('profile')} profile, {summary['runs']} runs "
+            f"({kind}{seeds})")
 
 
 def campaign_figures(ds, summary: dict) -> dict:

@@ -263,7 +263,7 @@ def summarize(result: CampaignResult) -> dict:
     crlb_params = result.crlb["parameters"].all_sensors if result.crlb is not None else None
     out = {"cases": {}, "runs": n, "dispersed": result.settings.get("dispersed", False),
            "profile": result.settings.get("profile"), "scenario": result.settings.get("scenario"),
-           "wall_s": result.wall_s, "resumed_runs": result.resumed}
+           "seed": result.settings.get("seed"), "wall_s": result.wall_s, "resumed_runs": result.resumed}
     for case in result.cases:
         rows = [run["cases"][case] for run in result.runs]
         err = np.array([_final(c["mass_error"]) for c in rows])
