@@ -5,12 +5,20 @@ import pytest
 from scipy.signal import lsim
 
 from postcapture.core.errors import DimensionError, PanelModelError
+from postcapture.dynamics.excitation import InputSchedule
 from postcapture.panels import LumpedChain, SweepSpec, amplitude_spectrum, chain_panel, spectral_peak
 from postcapture.panels.sweep import stiffness_damping, tip_response_chain, tip_response_fem
 from postcapture.panels.transient import tip_response_modal
 
 DT, N = 0.125, 800  # the reference's record: 100 s, 800 samples, 0.01 Hz bins
 T = np.arange(N) * DT
+
+
+def chirp_load(spec, t):
+    """The sweep's force in closed form: a linear chirp from f_start to f_stop on [0, duration)."""
+    rate = (spec.f_stop - spec.f_start) / spec.duration
+    load = spec.amplitude * np.sin(2 * np.pi * (spec.f_start * t + 0.5 * rate * t**2))
+    return np.where((t >= 0.0) & (t < spec.duration), load, 0.0)
 
 
 @pytest.mark.parametrize("n", [800, 801])
@@ -67,8 +75,12 @@ def test_sweep_spec_defaults_and_validation():
     spec = SweepSpec.for_modes([0.08, 0.5, 1.4])
     assert (spec.duration, spec.n_samples, spec.sample_period) == (100.0, 800, 0.125)
     assert spec.f_start == pytest.approx(0.02) and spec.f_stop == pytest.approx(1.75)
-    np.testing.assert_allclose(spec.profile()(spec.times[:3]), np.sin(2 * np.pi * (0.02 * spec.times[:3]
-                               + 0.5 * (1.73 / 100) * spec.times[:3] ** 2)))
+    t = np.concatenate([spec.times, [spec.duration]])
+    force_z = InputSchedule([spec.profile()], 0).sample(t)[2]  # the profile as simulated, on force_z
+    t3 = t[:3]
+    np.testing.assert_allclose(force_z[:3], np.sin(2 * np.pi * (0.02 * t3 + 0.5 * (1.73 / 100) * t3**2)))
+    np.testing.assert_allclose(force_z, chirp_load(spec, t), rtol=0, atol=1e-12)
+    assert force_z[-1] == 0.0  # off at the stop
     with pytest.raises(PanelModelError, match=r"sweep.f_stop: expected in \(0.1, 4\] Hz"):
         SweepSpec(f_start=0.1, f_stop=5.0)
     with pytest.raises(PanelModelError) as info:
@@ -90,7 +102,7 @@ def linear_chain_response(panel, spec):
     sub = 32
     fine = np.arange((spec.n_samples - 1) * sub + 1) * (spec.sample_period / sub)
     c = np.concatenate([j, np.zeros(n)])[None, :]
-    _, y, _ = lsim((a, bb, c, np.zeros((1, 1))), spec.profile()(fine), fine)
+    _, y, _ = lsim((a, bb, c, np.zeros((1, 1))), chirp_load(spec, fine), fine)
     return y[::sub]
 
 
@@ -117,7 +129,7 @@ def test_single_hinge_sweep_response_is_the_closed_form_oscillator():
     w0 = np.sqrt(k / inertia)
     sub = 32
     fine = np.arange((spec.n_samples - 1) * sub + 1) * (spec.sample_period / sub)
-    _, y, _ = lsim(([length**2 / inertia], [1.0, beta * w0**2, w0**2]), spec.profile()(fine), fine)
+    _, y, _ = lsim(([length**2 / inertia], [1.0, beta * w0**2, w0**2]), chirp_load(spec, fine), fine)
     w = tip_response_chain(panel, spec)
     assert np.max(np.abs(w - y[::sub])) < 1e-4 * np.max(np.abs(y))
 
@@ -127,6 +139,6 @@ def test_fem_sweep_is_modal_superposition_with_the_same_damping_law(envisat_mode
     beta = stiffness_damping(0.02, envisat_modes.frequency("bending"))
     w = tip_response_fem(envisat_modes, spec, beta=beta, substeps=1)
     zeta = 0.5 * beta * 2 * np.pi * envisat_modes.frequencies_hz
-    ref = tip_response_modal(envisat_modes, spec.profile()(spec.times), spec.times, damping_ratio=zeta)
+    ref = tip_response_modal(envisat_modes, chirp_load(spec, spec.times), spec.times, damping_ratio=zeta)
     np.testing.assert_allclose(w, ref, rtol=0, atol=1e-14)
     assert zeta[envisat_modes.indices("bending")[0]] == pytest.approx(0.02)

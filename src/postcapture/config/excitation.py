@@ -4,9 +4,11 @@ The input vector of the plant is ``u = [F_B (3), tau_B (3), tau_arm (n_arm)]``: 
 at its centre of mass and a torque, both in chaser body components (thrusters), then the arm joint
 motor torques. Channels are named ``force_x``, ``torque_z``, ``joint_1`` ... ``joint_n``.
 
-Profiles are pure functions of time; entries on the same channel add up. The compiled plant core
-evaluates the same formulas in C (``dynamics/csrc/pc_dynamics.c``), from the constants packed by
-:mod:`postcapture.dynamics.packing`; tests hold the two to round-off.
+Profiles are pure functions of time; entries on the same channel add up. The classes here are the
+validated data of the profiles and document their formulas; the formulas exist once, in the compiled
+core's C code (``dynamics/csrc/pc_dynamics.c``), and are evaluated through
+:class:`postcapture.dynamics.excitation.InputSchedule` (packed by
+:func:`postcapture.dynamics.excitation.pack_profiles`).
 """
 
 from __future__ import annotations
@@ -42,6 +44,9 @@ def channel_index(channel: str, n_arm: int) -> int:
 
 
 class _Window(Frozen):
+    """A profile on ``channel``, active on ``[start, stop)`` (``stop`` None: never stops), zero outside;
+    the left limit at a switch (``(start, stop]``) is what an integrator sees at the end of a step."""
+
     channel: str
     start: NonNegativeFloat = 0.0
     stop: NonNegativeFloat | None = None
@@ -53,16 +58,6 @@ class _Window(Frozen):
         if self.channel not in CHASER_CHANNELS and _joint_number(self.channel) is None:
             raise problem("a channel among force_x|y|z, torque_x|y|z, joint_<k>", repr(self.channel))
         return self
-
-    def _active(self, t, left: bool = False):
-        t = np.asarray(t, dtype=float)
-        stop = np.inf if self.stop is None else self.stop
-        return ((t > self.start) & (t <= stop)) if left else ((t >= self.start) & (t < stop))
-
-    def __call__(self, t, left: bool = False):
-        """The profile at times ``t`` (s): zero outside ``[start, stop)``; ``left`` takes the left limit."""
-        t = np.asarray(t, dtype=float)
-        return np.where(self._active(t, left), self._value(t), 0.0)
 
 
 class Step(_Window):
@@ -76,14 +71,6 @@ class Step(_Window):
     amplitude: float
     rise_time: NonNegativeFloat = 0.0
 
-    def _value(self, t):
-        if self.rise_time == 0.0:
-            return np.full(np.shape(t), float(self.amplitude))
-        ramp = np.clip((t - self.start) / self.rise_time, 0.0, 1.0)
-        if self.stop is not None:
-            ramp = np.minimum(ramp, np.clip((self.stop - t) / self.rise_time, 0.0, 1.0))
-        return self.amplitude * ramp
-
 
 class Sine(_Window):
     """``offset + amplitude sin(2 pi frequency (t - start) + phase)`` on ``[start, stop)``."""
@@ -94,12 +81,13 @@ class Sine(_Window):
     phase: float = 0.0
     offset: float = 0.0
 
-    def _value(self, t):
-        return self.offset + self.amplitude * np.sin(2 * np.pi * self.frequency * (t - self.start) + self.phase)
-
 
 class Chirp(_Window):
-    """Linear sine sweep from ``f0`` to ``f1`` (Hz) over ``[start, stop)``; ``stop`` is required."""
+    """Linear sine sweep from ``f0`` to ``f1`` (Hz) over ``[start, stop)``; ``stop`` is required.
+
+    ``amplitude sin(2 pi (f0 tau + rate tau^2 / 2) + phase)``, ``tau = t - start``,
+    ``rate = (f1 - f0) / (stop - start)``.
+    """
 
     kind: Literal["chirp"]
     amplitude: float
@@ -112,11 +100,6 @@ class Chirp(_Window):
         if self.stop is None:
             raise problem("a stop time for a chirp", "none")
         return self
-
-    def _value(self, t):
-        tau = t - self.start
-        rate = (self.f1 - self.f0) / (self.stop - self.start)
-        return self.amplitude * np.sin(2 * np.pi * (self.f0 * tau + 0.5 * rate * tau * tau) + self.phase)
 
 
 class Table(_Window):
@@ -133,9 +116,6 @@ class Table(_Window):
         if np.any(np.diff(self.t) <= 0.0):
             raise problem("strictly increasing times", list(self.t))
         return self
-
-    def _value(self, t):
-        return np.interp(t, self.t, self.value)
 
 
 Excitation = Annotated[Union[Step, Sine, Chirp, Table], Field(discriminator="kind")]

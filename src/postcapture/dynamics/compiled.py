@@ -151,6 +151,7 @@ def _declare(lib: ctypes.CDLL) -> None:
         "pc_stats": (None, [P, P]),
         "pc_reset_stats": (None, [P]),
         "pc_inputs": (None, [P, D, I, P]),
+        "pc_inputs_eval": (I, [I, P, P, I, P, P, I, I, P, I, P]),
         "pc_force": (None, [P, P, P, P, P]),
         "pc_aba": (I, [P, P, P, P, P]),
         "pc_rnea": (I, [P, P, P, P, P]),

@@ -1,18 +1,19 @@
 """Pack a :class:`~postcapture.dynamics.system.System` into the compiled core's int and double arrays.
 
 The layout is described in ``csrc/pc_model.c``. The same arrays are embedded in exported FMUs, so the
-native core and an FMU are built from one description. Also defined here: the plant's named parameter
-vector ``p`` (see :func:`parameter_layout`).
+native core and an FMU are built from one description. The excitation profiles are packed by
+:func:`postcapture.dynamics.excitation.pack_profiles` (re-exported here), the layout the core's
+``pc_inputs_eval`` also reads. Also defined here: the plant's named parameter vector ``p`` (see
+:func:`parameter_layout`).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from postcapture.config.excitation import Chirp, Sine, Step, Table, channel_index
+from postcapture.dynamics.excitation import pack_profiles
 from postcapture.dynamics.system import System
 
 __all__ = ["LAYOUT_VERSION", "Packed", "pack_profiles", "ParameterLayout", "parameter_layout", "pack"]
@@ -54,33 +55,6 @@ class Packed:
     ints: np.ndarray
     doubles: np.ndarray
     params: ParameterLayout
-
-
-def pack_profiles(profiles, n_arm: int):
-    """Per profile: ints ``(kind, channel, table offset, table length)`` and doubles ``(start, stop, a,
-    rise, w, phase, offset, f0, rate)``, then the concatenated table times and values."""
-    ints, dbl, table_t, table_v = [], [], [], []
-    for p in profiles:
-        stop = math.inf if p.stop is None else p.stop
-        start = p.start
-        a = rise = w = phase = offset = f0 = rate = 0.0
-        table = n_table = 0
-        if isinstance(p, Step):
-            kind, a, rise = 0, p.amplitude, p.rise_time
-        elif isinstance(p, Sine):
-            kind, a, w, phase, offset = 1, p.amplitude, 2 * math.pi * p.frequency, p.phase, p.offset
-        elif isinstance(p, Chirp):
-            kind, a, f0, phase = 2, p.amplitude, p.f0, p.phase
-            rate = (p.f1 - p.f0) / (stop - start)
-        elif isinstance(p, Table):
-            kind, table, n_table = 3, len(table_t), len(p.t)
-            table_t += list(p.t)
-            table_v += list(p.value)
-        else:
-            raise TypeError(f"unknown excitation profile {type(p).__name__}")
-        ints += [kind, channel_index(p.channel, n_arm), table, n_table]
-        dbl += [start, stop, a, rise, w, phase, offset, f0, rate]
-    return ints, dbl, table_t, table_v
 
 
 def pack(system: System) -> Packed:

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from postcapture.config.excitation import Chirp
+from postcapture.config.excitation import CHASER_CHANNELS, Chirp
 from postcapture.config.schema import Panel
 from postcapture.core.errors import DimensionError, PanelModelError, Problem
 from postcapture.dynamics.assembly import assemble_panel_chain
@@ -262,7 +262,8 @@ def tip_response_fem(modes: PanelModes, spec: SweepSpec, *, beta: float, substep
     """
     fine = np.arange((spec.n_samples - 1) * substeps + 1) * (spec.sample_period / substeps)
     zeta = 0.5 * beta * 2.0 * np.pi * modes.frequencies_hz
-    w = tip_response_modal(modes, spec.profile()(fine), fine, damping_ratio=zeta)
+    load = InputSchedule([spec.profile()], 0).sample(fine)[CHASER_CHANNELS.index("force_z")]
+    w = tip_response_modal(modes, load, fine, damping_ratio=zeta)
     return w[::substeps]
 
 

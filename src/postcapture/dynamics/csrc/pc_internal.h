@@ -77,6 +77,7 @@ typedef struct {
 void pc_set_error(pc_model_t* m, const char* fmt, ...);
 int pc_step_internal(pc_model_t* m, double* q, double* v, double t, double h, pc_stages_t* S, double* xi_end, int warm);
 void pc_kinematics(pc_model_t* m, const double* q);
+void pc_profile_unpack(const int* ip, const double* dp, pc_profile_t* P);
 void pc_world_placements(pc_model_t* m);
 void pc_joint_inertia_matrix(const double* pi, double* I6);
 void pc_add_transformed_inertia(const double* R, const double* p, const double* Ia, double* Ip);

@@ -156,11 +156,8 @@ pc_model_t* pc_create(const int* ib, const double* db, size_t n_ib, size_t n_db)
             if (m->u_to_v[i] >= 0) m->B[(size_t)m->u_to_v[i] * m->nu + i] = 1.0;
     }
     for (i = 0; i < m->nprof; i++) {
-        pc_profile_t* P = &m->prof[i];
-        P->kind = ip[0]; P->channel = ip[1]; P->table = ip[2]; P->n_table = ip[3];
+        pc_profile_unpack(ip, dp, &m->prof[i]);
         ip += 4;
-        P->start = dp[0]; P->stop = dp[1]; P->a = dp[2]; P->rise = dp[3]; P->w = dp[4]; P->phase = dp[5];
-        P->offset = dp[6]; P->f0 = dp[7]; P->rate = dp[8];
         dp += 9;
     }
     memcpy(m->table_t, dp, (size_t)m->ntable * sizeof(double)); dp += m->ntable;

@@ -99,6 +99,11 @@ PC_API void pc_reset_stats(pc_model_t* m);
 
 /* dynamics */
 PC_API void pc_inputs(const pc_model_t* m, double t, int left, double* u);
+/* The excitation without a model: nprof profiles and their tables packed as in the model arrays (ints
+ * kind, channel, table offset, table length; doubles start, stop, a, rise, w, phase, offset, f0, rate),
+ * summed per channel at n_times times t into u_out (n_times x nu, row-major); left: left limits. */
+PC_API int pc_inputs_eval(int nprof, const int* prof_i, const double* prof_d, int ntable, const double* table_t,
+                          const double* table_v, int nu, int n_times, const double* t, int left, double* u_out);
 PC_API void pc_force(const pc_model_t* m, const double* q, const double* v, const double* u, double* tau);
 PC_API int pc_aba(pc_model_t* m, const double* q, const double* v, const double* tau, double* ddq);
 PC_API int pc_rnea(pc_model_t* m, const double* q, const double* v, const double* a, double* tau);
