@@ -70,16 +70,33 @@ def parameter_prior(plan: RunPlan, pmap: ParameterMap, draws: int = PRIOR_DRAWS,
     """Initial coordinates ``eta0`` and their covariance from the declared priors (see the module docstring).
 
     ``initial_mass`` (kg) is the start of the estimate (the plan's by default; the nominal mass gives
-    the prior itself, about the nominal parameters).
+    the prior itself, about the nominal parameters). The result depends only on the nominal scenario,
+    the map and the initial mass (the draws have their own seed, not the run's), so a process computes it
+    once and every run of a campaign with the same filters reuses it.
     """
+    m0 = float(plan.initial_mass if initial_mass is None else initial_mass)
+    scenario = _with_mass_prior(plan.scenario, plan.tuning.mass_prior_sigma)
+    key = (scenario.model_dump_json(), pmap.model_names, pmap.p_nominal.tobytes(), pmap.groups, pmap.labels,
+           m0, float(plan.nominal_mass), int(draws))
+    if key not in _PRIOR_CACHE:
+        if len(_PRIOR_CACHE) >= 8:
+            _PRIOR_CACHE.pop(next(iter(_PRIOR_CACHE)))
+        _PRIOR_CACHE[key] = _draw_prior(scenario, pmap, draws, m0 - plan.nominal_mass)
+    eta0, P = _PRIOR_CACHE[key]
+    return eta0.copy(), P.copy()
+
+
+_PRIOR_CACHE: dict = {}
+
+
+def _draw_prior(scenario, pmap: ParameterMap, draws: int, mass_offset: float):
     names = pmap.model_names
     p0 = pmap.p_nominal.copy()
     if "target.m" in names:
         hub = mass_properties(p0[:10])
-        hub.mass += (plan.initial_mass if initial_mass is None else initial_mass) - plan.nominal_mass
+        hub.mass += mass_offset
         p0[:10] = dynamic_parameters(hub)
     eta0 = pmap.from_model(p0)
-    scenario = _with_mass_prior(plan.scenario, plan.tuning.mass_prior_sigma)
     rng = np.random.default_rng(_PRIOR_SEED)
     D = np.empty((draws, pmap.size))
     for i in range(draws):
