@@ -212,3 +212,13 @@ def test_interrupted_campaign_workers_print_no_traceback(tmp_path):
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 130 and out == ""
     assert "Traceback" not in err and err.strip().splitlines()[-1] == "postcapture: interrupted", err
+
+
+def test_a_reader_that_goes_away_is_no_error(tmp_path):
+    """``postcapture modes | head -0``: the closed pipe ends the command quietly (status 141, as SIGPIPE
+    would), with no message and no traceback on stderr."""
+    proc = subprocess.Popen([EXE, "modes"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path)
+    proc.stdout.close()  # before the command has printed anything (it takes a second to import)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, err
+    assert err == "", err

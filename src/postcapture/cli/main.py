@@ -135,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--panel-segments", type=_positive_int, default=None, metavar="N",
                        help="cut every panel into N segments (stiffnesses derived from EI(s))")
 
-    p = sub.add_parser("run", help="the main job: truth, sensors, EKF/MEKF dual schemes and the joint EKF")
+    p = sub.add_parser("run", help="the main job: truth, sensors, the recommended dual and joint estimators and the reference's four")
     p.add_argument("--scenario", default="envisat", help="built-in name or TOML path (default: envisat)")
     p.add_argument("--duration", type=_positive_float, default=None, metavar="S", help="seconds (default: scenario)")
     p.add_argument("--profile", choices=["reference", "realistic"], default="reference",
@@ -285,6 +285,14 @@ def _report(exc: BaseException, verbose: bool) -> int:
     return 2
 
 
+def _silence_stdout() -> None:
+    # Python flushes stdout again at exit, which would raise a second time into the closed pipe
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``postcapture`` console script; returns the exit status."""
     _single_threaded()
@@ -299,6 +307,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("postcapture: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (`postcapture fmu info X | head`): not an error to report
+        _silence_stdout()
+        return 141
     except Terminated:
         print("postcapture: terminated", file=sys.stderr)
         return 143
