@@ -244,3 +244,32 @@ def test_campaign_summary_and_files(envisat, tmp_path):
     for fig in campaign_figures(xr.open_dataset(paths["results"]).load(), s).values():
         title = fig._suptitle.get_text()
         assert "envisat" in title and "realistic profile" in title and f"seeds ({envisat.estimation.seed}, r)" in title, title
+
+
+def test_target_sigmas_match_a_sampled_covariance(envisat):
+    """The campaign's CoM and inertia 1-sigma (the filter's covariance of the ten inertial parameters carried
+    to first order) against sampling that covariance through the exact map; errors against the truth."""
+    from types import SimpleNamespace
+
+    from postcapture.dynamics.truth import target_properties, truth_vector_names
+    from postcapture.studies.montecarlo import _target_errors
+    from postcapture.studies.setup import plan_run
+
+    plan = plan_run(envisat, cases=("joint",), duration=1.0)
+    truth_vec = plan.truth.vector(envisat)
+    names = truth_vector_names(envisat)
+    pi = plan.truth.build().parameters()[:10]
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(10, 10))
+    scale = 1e-3 * np.maximum(np.abs(pi), 1.0)
+    C = (A @ A.T / 10) * np.outer(scale, scale)
+    res = SimpleNamespace(params=np.column_stack([pi, pi]), params_cov=C)
+    out = _target_errors(plan, res, truth_vec, names)
+    assert np.allclose(out["com_error"], 0.0, atol=1e-9) and np.allclose(out["inertia_error"], 0.0, atol=1e-6)
+    draws = rng.multivariate_normal(pi, C, size=4000)
+    ys = []
+    for d in draws:
+        w = target_properties(envisat, d)
+        ys.append(np.r_[w.com, w.inertia[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]]])
+    sampled = np.std(ys, axis=0, ddof=1)
+    assert np.allclose(np.r_[out["com_sigma"], out["inertia_sigma"]], sampled, rtol=0.06)

@@ -32,7 +32,8 @@ class SchemeResult:
 
     ``attitude`` is the attitude estimate with its covariance; ``mass`` and ``mass_sigma`` the total
     target mass (kg); ``params`` and ``params_sigma`` (n_p, n) the plant's parameter vector (its
-    ``param_names``) and their 1-sigma; ``events`` the filters' :class:`FilterEvent` lists.
+    ``param_names``) and their 1-sigma; ``params_cov`` the parameters' full covariance at the end (None
+    when the scheme estimates no parameter vector); ``events`` the filters' :class:`FilterEvent` lists.
     """
 
     attitude: EstimateHistory
@@ -45,6 +46,7 @@ class SchemeResult:
     params_sigma: np.ndarray | None = None
     param_names: tuple = ()
     events: dict = field(default_factory=dict)
+    params_cov: np.ndarray | None = None
 
 
 class _Recorder:
@@ -94,7 +96,7 @@ def _finish(name, rec: _Recorder, t_grid, labels, counts, events, filt, wall0):
         success=not diverged, status=0 if not diverged else -1, message=message,
     )
     return SchemeResult(history, rec.mass, rec.mass_sigma, rec.mass_nis, time.perf_counter() - wall0, counts,
-                        rec.p, rec.ps, tuple(filt.model.param_names), events)
+                        rec.p, rec.ps, tuple(filt.model.param_names), events, filt.parameter_covariance())
 
 
 def run_joint_scheme(filt, sensors: SensorSuite, t_grid, *, R_gyro, R_star, R_accel, panel_mass: float,

@@ -45,8 +45,12 @@ def campaign_table(summary: dict) -> str:
     notes = []
     for n, c in summary["cases"].items():
         if c.get("com_error_rms_m") is not None:
-            notes.append(f"{n}: final error RMS of the target's CoM {c['com_error_rms_m']:.3g} m, of its principal "
-                         f"inertia {c['inertia_error_rms_kgm2']:.3g} kg m^2.")
+            text = (f"{n}: final error RMS of the target's CoM {c['com_error_rms_m']:.3g} m, of its principal "
+                    f"inertia {c['inertia_error_rms_kgm2']:.3g} kg m^2")
+            if c.get("com_inside_3sigma_fraction") is not None:
+                text += (f"; inside the filter's 3 sigma: {c['com_inside_3sigma_fraction']:.0%} of CoM components, "
+                         f"{c['inertia_inside_3sigma_fraction']:.0%} of inertia components")
+            notes.append(text + ".")
     band = f"95 % NEES bands for {summary['runs']} runs: mass [{lo1:.2f}, {hi1:.2f}]"
     if any_case.get("attitude_nees_band"):
         band += ", attitude [{:.2f}, {:.2f}]".format(*any_case["attitude_nees_band"])

@@ -50,7 +50,8 @@ logger = logging.getLogger(__name__)
 
 _MANIFEST = "campaign.json"
 _RUN_ARRAYS = ("mass_error", "mass_sigma", "attitude_error", "attitude_sigma", "attitude_nees", "com_error",
-               "inertia_error")
+               "inertia_error", "com_sigma", "inertia_sigma")
+_ADDED_LATER = {"com_sigma": 3, "inertia_sigma": 6}
 _RUNS = "runs"
 
 
@@ -100,18 +101,38 @@ def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
 
 
 def _target_errors(plan: RunPlan, res, truth_vec, names) -> dict:
-    """Final errors of the whole target's centre of mass (m, 3, G frame) and inertia (kg m^2, 6), where estimated."""
-    nan = {"com_error": np.full(3, np.nan), "inertia_error": np.full(6, np.nan)}
+    """Final errors of the whole target's centre of mass (m, 3, G frame) and inertia (kg m^2, 6: xx, yy, zz,
+    xy, xz, yz), where estimated, with the filter's 1-sigma of each (its final covariance of the ten
+    inertial parameters carried through the same map, to first order)."""
+    nan = {"com_error": np.full(3, np.nan), "inertia_error": np.full(6, np.nan),
+           "com_sigma": np.full(3, np.nan), "inertia_sigma": np.full(6, np.nan)}
     p = getattr(res, "params", None)
     if p is None or not np.all(np.isfinite(p[:10, -1])):
         return nan
-    est = target_properties(plan.scenario, p[:10, -1])
+
+    def whole(pi):
+        est = target_properties(plan.scenario, pi)
+        I = est.inertia
+        return np.concatenate([est.com, [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]])
+
+    pi = p[:10, -1].copy()
+    y = whole(pi)
     t = dict(zip(names, truth_vec))
-    I = est.inertia
-    inertia = np.array([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])
     true_I = np.array([t[f"target_I_{a}"] for a in ("xx", "yy", "zz", "xy", "xz", "yz")])
     true_c = np.array([t[f"target_com_{a}"] for a in "xyz"])
-    return {"com_error": est.com - true_c, "inertia_error": inertia - true_I}
+    out = {"com_error": y[:3] - true_c, "inertia_error": y[3:] - true_I,
+           "com_sigma": np.full(3, np.nan), "inertia_sigma": np.full(6, np.nan)}
+    C = getattr(res, "params_cov", None)
+    if C is not None and np.all(np.isfinite(C[:10, :10])):
+        J = np.empty((9, 10))
+        for j in range(10):  # central differences; the map is smooth and cheap
+            h = 1e-6 * max(abs(pi[j]), 1.0)
+            e = np.zeros(10)
+            e[j] = h
+            J[:, j] = (whole(pi + e) - whole(pi - e)) / (2 * h)
+        s = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, C[:10, :10], J), 0.0))
+        out["com_sigma"], out["inertia_sigma"] = s[:3], s[3:]
+    return out
 
 
 def _task(payload: dict, r: int, shared_truth=None) -> dict:
@@ -145,7 +166,8 @@ def _load_run(path: Path) -> dict:
         meta = json.loads(str(z["meta"]))
         out = {"run": meta["run"], "truth": z["truth"], "true_mass": float(z["true_mass"]), "cases": {}}
         for case, info in meta["cases"].items():
-            c = {key: z[f"{case}/{key}"] for key in _RUN_ARRAYS}
+            c = {key: z[f"{case}/{key}"] if f"{case}/{key}" in z.files else np.full(_ADDED_LATER[key], np.nan)
+                 for key in _RUN_ARRAYS}  # a run saved before the sigmas were recorded has NaN ones
             c.update(info)
             out["cases"][case] = c
     return out
@@ -224,6 +246,12 @@ class CampaignResult:
                 "inertia_error": (("run", "case", "inertia_component"),
                                   np.array([[run["cases"][c]["inertia_error"] for c in cases] for run in self.runs]),
                                   {"units": "kg m2", "long_name": "final error of the target's inertia about its CoM"}),
+                "com_sigma": (("run", "case", "axis"), np.array([[run["cases"][c]["com_sigma"] for c in cases]
+                                                                 for run in self.runs]),
+                              {"units": "m", "long_name": "the filter's final 1-sigma of the target's centre of mass"}),
+                "inertia_sigma": (("run", "case", "inertia_component"),
+                                  np.array([[run["cases"][c]["inertia_sigma"] for c in cases] for run in self.runs]),
+                                  {"units": "kg m2", "long_name": "the filter's final 1-sigma of the target's inertia"}),
                 "diverged_at": (("run", "case"), diverged,
                                 {"units": "s", "long_name": "time of divergence (NaN: none)"}),
                 "truth": (("run", "truth_parameter"), truth,
@@ -280,10 +308,18 @@ def summarize(result: CampaignResult) -> dict:
         com = np.array([c["com_error"] for c in rows])
         inertia = np.array([c["inertia_error"] for c in rows])
         has_target = np.isfinite(com).all(axis=1) & ~failed
+        com_s = np.array([c["com_sigma"] for c in rows])
+        inertia_s = np.array([c["inertia_sigma"] for c in rows])
+        has_sigma = has_target & np.isfinite(com_s).all(axis=1) & np.isfinite(inertia_s).all(axis=1)
         out["cases"][case] = {
             "com_error_rms_m": float(np.sqrt(np.mean(np.sum(com[has_target] ** 2, axis=1)))) if has_target.any() else None,
             "inertia_error_rms_kgm2": (float(np.sqrt(np.mean(np.sum(inertia[has_target, :3] ** 2, axis=1) / 3)))
                                        if has_target.any() else None),
+            # the share of (run, component) pairs whose final error lies inside the filter's own 3 sigma
+            "com_inside_3sigma_fraction": (float(np.mean(np.abs(com[has_sigma]) <= 3.0 * com_s[has_sigma]))
+                                           if has_sigma.any() else None),
+            "inertia_inside_3sigma_fraction": (float(np.mean(np.abs(inertia[has_sigma]) <= 3.0 * inertia_s[has_sigma]))
+                                               if has_sigma.any() else None),
             "mass_error_mean_kg": float(np.mean(err[ok])) if ok.any() else None,
             "mass_error_std_kg": float(np.std(err[ok], ddof=1)) if ok.sum() > 1 else None,
             "mass_error_rms_kg": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else None,
