@@ -22,6 +22,7 @@ import numpy as np
 import pinocchio as pin
 import scipy.linalg as sla
 
+from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.liegroup import ad
 from postcapture.dynamics.system import System
 
@@ -38,21 +39,22 @@ class Linearization:
 
 
 def linearize(system: System, q: np.ndarray, v: np.ndarray, t: float = 0.0, u_extra=None) -> Linearization:
-    """Continuous-time linearisation of the plant at ``(q, v, t)`` (exact, analytic)."""
+    """Continuous-time linearisation of the plant at ``(q, v, t)`` (exact, analytic: the compiled core's
+    partial derivatives of ``ddq``, :meth:`postcapture.dynamics.core.CompiledPlant.derivatives`)."""
     nv = system.nv
-    ddq, dq, dv, Minv = system.derivatives(q, v, t, u_extra)
+    _, Aq, Av, Au, Ap = CompiledPlant(system).derivatives(q, v, system.input_vector(t, u_extra))
     A = np.zeros((2 * nv, 2 * nv))
     A[:nv, nv:] = np.eye(nv)
     if system.n_root_v:
         A[:6, :6] = -ad(v[:6])
-    A[nv:, :nv] = dq
-    A[nv:, nv:] = dv
+    A[nv:, :nv] = Aq
+    A[nv:, nv:] = Av
     B = np.zeros((2 * nv, system.n_u))
-    B[nv:] = Minv @ system.B
+    B[nv:] = Au
     E = None
     if system.layout.has_target:
         E = np.zeros(2 * nv)
-        E[nv:] = system.ddq_dmass(q, v, ddq, Minv)
+        E[nv:] = Ap @ system.dparams_dmass()
     return Linearization(A, B, E)
 
 
