@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 import scipy.linalg as sla
 
 from postcapture.dynamics.core import CompiledPlant
@@ -95,8 +94,7 @@ def structural_modes(system: System, q: np.ndarray | None = None) -> list[Mode]:
     """
     q = system.assembly.q_rest.copy() if q is None else np.asarray(q, dtype=float)
     nv = system.nv
-    M = pin.crba(system.model, system.data, q)
-    M = np.triu(M) + np.triu(M, 1).T
+    M = CompiledPlant(system).mass_matrix(q)
     r = system.n_root_v
     K = np.zeros((nv, nv))
     D = np.zeros((nv, nv))
