@@ -1,8 +1,9 @@
 """The Python Lie-group Runge-Kutta integrators: the test oracle of the compiled core.
 
 They were the production path before the compiled core (``postcapture/dynamics/csrc``); they stay here,
-outside the package, as an independent implementation over Pinocchio (``pinocchio.integrate``,
-``computeABADerivatives``) that the core's steps and step Jacobians are held to.
+outside the package, as an independent implementation over Pinocchio (``pinocchio.integrate``, and the
+plant's equations of ``tests/pinocchio_reference.py``: ``aba``, ``computeABADerivatives``) that the core's
+steps and step Jacobians are held to.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg.lapack import dgetrf as _getrf, dgetrs as _getrs
 
+import pinocchio_reference as ref
 from postcapture.core.errors import SimulationError
 from postcapture.dynamics.integrators import TABLEAUX, Tableau
 from postcapture.dynamics.system import System
@@ -136,7 +138,7 @@ class LieRungeKutta:
 
     # ------------------------------------------------------------------ Newton matrix
     def _newton_matrix(self, q, v, u, hg):
-        _, dq, dv, _ = self.system.derivatives_u(q, v, u)
+        _, dq, dv, _ = ref.derivatives_u(self.system, q, v, u, self._springs)
         S = np.eye(self.system.nv) - hg * dv - hg * hg * dq
         lu, piv, info = _getrf(S)
         if info != 0:
@@ -145,10 +147,10 @@ class LieRungeKutta:
         self._lu_age = 0
         self.stats["jacobians"] += 1
 
-    def _solve_stage(self, q, u_i, tau_i, xi_bar, V_bar, hg, xi, V, t_start):
+    def _solve_stage(self, q, u_i, xi_bar, V_bar, hg, xi, V, t_start):
         sysm = self.system
         model = sysm.model
-        integrate, accel, getrs = pin.integrate, sysm.acceleration_tau, _getrs
+        integrate, accel, getrs, sp = pin.integrate, ref.acceleration_u, _getrs, self._springs
         ff = self.n_ff
         # per-component weights 1 / (atol + rtol |y_i|): a small stiff coordinate converges as tightly as a
         # large one (a single global norm let slow stiff arm-joint rates stop early at ~1e-4 relative)
@@ -158,7 +160,7 @@ class LieRungeKutta:
         for attempt in range(2):
             lu, piv, dq, _ = self._lu
             for it in range(self.max_newton):
-                Kv = accel(integrate(model, q, xi), V, tau_i)
+                Kv = accel(sysm, integrate(model, q, xi), V, u_i, sp)
                 if ff:
                     kx = V.copy()
                     kx[:6] = dexpinv_apply(xi[:6], V[:6])
@@ -194,6 +196,7 @@ class LieRungeKutta:
     def _stages(self, q, v, t, h, u_extra, refresh):
         """Solve every stage; returns the stages ``(xi, V, t_i, u_i)``, their slopes and the step's end."""
         sysm = self.system
+        self._springs = sp = ref.springs(sysm)  # the springs at the current parameters, for the whole step
         A, c = self._A_rows, self._c
         Kxi: list = []
         Kv: list = []
@@ -214,12 +217,11 @@ class LieRungeKutta:
                 V_bar = v
             t_i = t + c[i] * h
             u_i = sysm.input_vector(t_i, u_extra, left=c[i] == 1.0)
-            tau_i = sysm.input_torque(u_i)
             g = row[i]
             if g == 0.0:
                 xi, V = xi_bar, V_bar
                 Kxi.append(self._kxi(xi, V))
-                Kv.append(sysm.acceleration_tau(pin.integrate(sysm.model, q, xi), V, tau_i))
+                Kv.append(ref.acceleration_u(sysm, pin.integrate(sysm.model, q, xi), V, u_i, sp))
             else:
                 hg = h * g
                 if i == 0 and (refresh or self._lu is None or self._lu[3] != hg or self._lu_age >= self.reuse_jacobian):
@@ -235,7 +237,7 @@ class LieRungeKutta:
                     xi0, V0 = hg * v, v + hg * fsal[1]
                 else:
                     xi0, V0 = hg * v, v
-                xi, V = self._solve_stage(q, u_i, tau_i, xi_bar, V_bar, hg, xi0, V0, t)
+                xi, V = self._solve_stage(q, u_i, xi_bar, V_bar, hg, xi0, V0, t)
                 inv = 1.0 / hg
                 Kxi.append((xi - xi_bar) * inv)
                 Kv.append((V - V_bar) * inv)
@@ -317,7 +319,7 @@ class LieRungeKutta:
                 if tab.A[i, j] != 0.0:
                     dZbar += h * tab.A[i, j] * dK[j]
             qi = pin.integrate(model, q, xi)
-            ddq, Aq, Av, Minv = sysm.derivatives_u(qi, V, u_i)
+            ddq, Aq, Av, Minv = ref.derivatives_u(sysm, qi, V, u_i, self._springs)
             Jr = pin.dIntegrate(model, q, xi, pin.ArgumentPosition.ARG1)
             J0 = pin.dIntegrate(model, q, xi, pin.ArgumentPosition.ARG0)
             dKdZ = np.zeros((2 * nv, 2 * nv))
@@ -331,7 +333,7 @@ class LieRungeKutta:
             dKdp[nv:, :nv] = Aq @ J0
             dKdp[nv:, 2 * nv : 2 * nv + nu] = Minv @ sysm.B
             if n_par:
-                dKdp[nv:, 2 * nv + nu :] = sysm.ddq_dparams(qi, V, ddq, Minv)
+                dKdp[nv:, 2 * nv + nu :] = ref.ddq_dparams(sysm, qi, V, ddq, Minv, self._springs)
             g = tab.A[i, i]
             if g == 0.0:
                 dZ = dZbar

@@ -3,6 +3,7 @@ the Python Lie-group integrator (the oracle) and closed forms."""
 
 import numpy as np
 import pinocchio as pin
+import pinocchio_reference as ref
 import pytest
 from lie_oracle import make_integrator
 
@@ -10,8 +11,6 @@ from postcapture.core.errors import CompileError
 from postcapture.dynamics import compiled
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
-from lie_oracle import make_integrator
-
 from postcapture.dynamics.integrators import TABLEAUX
 from postcapture.dynamics.process_model import NativeProcessModel
 
@@ -53,12 +52,22 @@ def test_aba_rnea_mass_matrix_match_pinocchio(system, plant):
         np.testing.assert_allclose(plant.integrate(q, dq), pin.integrate(model, q, dq), atol=1e-15)
 
 
+def test_energies_match_pinocchio(system, plant):
+    """The kinetic and elastic energies a run records, against Pinocchio and the springs' closed form."""
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        q, v = _random_state(system, rng)
+        _, _, mech, _ = plant.sample(q, v, 0.0)
+        assert mech[9] == pytest.approx(ref.kinetic_energy(system, q, v), rel=1e-12)
+        assert mech[10] == pytest.approx(ref.elastic_energy(system, q), rel=1e-12)
+
+
 def test_acceleration_partials_match_pinocchio(system, plant):
     rng = np.random.default_rng(2)
     for _ in range(3):
         q, v = _random_state(system, rng)
         u = rng.standard_normal(system.n_u)
-        ddq, dq, dv, Minv = system.derivatives_u(q, v, u)
+        ddq, dq, dv, Minv = ref.derivatives_u(system, q, v, u)
         a, Aq, Av, Au, _ = plant.derivatives(q, v, u)
         np.testing.assert_allclose(a, ddq, atol=1e-10 * np.abs(ddq).max())
         np.testing.assert_allclose(Aq, dq, atol=1e-10 * np.abs(dq).max())
@@ -67,7 +76,7 @@ def test_acceleration_partials_match_pinocchio(system, plant):
 
 
 def test_parameter_partials_against_the_regressor_and_finite_differences(system):
-    """Parameter columns of d ddq / dp: against Pinocchio's joint-torque regressor (System.ddq_dparams,
+    """Parameter columns of d ddq / dp: against Pinocchio's body regressor (pinocchio_reference.ddq_dparams,
     an independent implementation) to 1e-7 of each column's scale, and against central differences of
     the core to 1e-3 of it (the random joint angles load the springs, so ddq is large and differences of
     it carry round-off; the step Jacobian's parameter columns are held to 1e-6 at a physical state)."""
@@ -76,10 +85,10 @@ def test_parameter_partials_against_the_regressor_and_finite_differences(system)
     q, v = _random_state(system, rng)
     u = rng.standard_normal(system.n_u)
     _, _, _, _, Ap = plant.derivatives(q, v, u)
-    ddq, _, _, Minv = system.derivatives_u(q, v, u)
-    ref = system.ddq_dparams(q, v, ddq, Minv)
+    ddq, _, _, Minv = ref.derivatives_u(system, q, v, u)
+    expected = ref.ddq_dparams(system, q, v, ddq, Minv)
     for k in range(plant.np):
-        np.testing.assert_allclose(Ap[:, k], ref[:, k], rtol=0, atol=1e-7 * np.abs(ref[:, k]).max(),
+        np.testing.assert_allclose(Ap[:, k], expected[:, k], rtol=0, atol=1e-7 * np.abs(expected[:, k]).max(),
                                    err_msg=plant.param_names[k])
     p0 = plant.params
     for k in range(plant.np):

@@ -10,6 +10,7 @@ from postcapture.config.schema import Scenario
 from postcapture.core.errors import SimulationError
 from postcapture.core.rotations import dcm_from_quat, quat_to_pinocchio
 from postcapture.dynamics.assembly import assemble
+from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.excitation import InputSchedule
 from postcapture.dynamics.system import System
 
@@ -89,8 +90,10 @@ def initial_state(system: System, t0: float = 0.0, tol: float = 1e-11, max_iter:
     omega = np.asarray(init.omega_BN_B, dtype=float)
     _place_com(system, q, v, omega, init.com_velocity_N)
     if init.elastic == "relaxed" and system.n_e:
+        plant = CompiledPlant(system)
+        u0 = system.input_vector(t0)
         for _ in range(max_iter):
-            ddq, dq, _, _ = system.derivatives(q, v, t0)
+            ddq, dq, _, _, _ = plant.derivatives(q, v, u0)
             r = ddq[6:]
             scale = max(1.0, float(np.abs(ddq[:6]).max()))
             if np.abs(r).max() <= tol * scale:

@@ -19,9 +19,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 import scipy.linalg as sla
 
+from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.liegroup import ad
 from postcapture.dynamics.system import System
 
@@ -38,21 +38,22 @@ class Linearization:
 
 
 def linearize(system: System, q: np.ndarray, v: np.ndarray, t: float = 0.0, u_extra=None) -> Linearization:
-    """Continuous-time linearisation of the plant at ``(q, v, t)`` (exact, analytic)."""
+    """Continuous-time linearisation of the plant at ``(q, v, t)`` (exact, analytic: the compiled core's
+    partial derivatives of ``ddq``, :meth:`postcapture.dynamics.core.CompiledPlant.derivatives`)."""
     nv = system.nv
-    ddq, dq, dv, Minv = system.derivatives(q, v, t, u_extra)
+    _, Aq, Av, Au, Ap = CompiledPlant(system).derivatives(q, v, system.input_vector(t, u_extra))
     A = np.zeros((2 * nv, 2 * nv))
     A[:nv, nv:] = np.eye(nv)
     if system.n_root_v:
         A[:6, :6] = -ad(v[:6])
-    A[nv:, :nv] = dq
-    A[nv:, nv:] = dv
+    A[nv:, :nv] = Aq
+    A[nv:, nv:] = Av
     B = np.zeros((2 * nv, system.n_u))
-    B[nv:] = Minv @ system.B
+    B[nv:] = Au
     E = None
     if system.layout.has_target:
         E = np.zeros(2 * nv)
-        E[nv:] = system.ddq_dmass(q, v, ddq, Minv)
+        E[nv:] = Ap @ system.dparams_dmass()
     return Linearization(A, B, E)
 
 
@@ -93,8 +94,7 @@ def structural_modes(system: System, q: np.ndarray | None = None) -> list[Mode]:
     """
     q = system.assembly.q_rest.copy() if q is None else np.asarray(q, dtype=float)
     nv = system.nv
-    M = pin.crba(system.model, system.data, q)
-    M = np.triu(M) + np.triu(M, 1).T
+    M = CompiledPlant(system).mass_matrix(q)
     r = system.n_root_v
     K = np.zeros((nv, nv))
     D = np.zeros((nv, nv))

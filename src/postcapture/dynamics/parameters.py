@@ -13,9 +13,9 @@
 3. ``arm.stiffness_scale`` and ``arm.damping_scale``: factors on every arm joint spring and damper
    (with Spong rotors, the joint's, not the servo's).
 
-The inertial parameters enter the dynamics linearly (``M(pi) ddq + b(pi) = tau``), so their
-derivatives are exact through Pinocchio's body regressor; the spring and damper torques are linear in
-the scales.
+The inertial parameters enter the dynamics linearly (``M(pi) ddq + b(pi) = tau``), and the spring and
+damper torques are linear in the scales: the compiled core's derivatives with respect to ``p`` are exact
+(the tests hold them to Pinocchio's body regressor).
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ class NativeProcessModel:
         self.name = name
         self.plant = CompiledPlant(self._system, integrator)
         self._p = self._system.parameters()  # the model's parameters (the compiled copy holds them)
-        self._system_p = self._p.copy()  # what the Python copy holds
+        self._system_p = self._p.copy()  # what the System holds
         sysm = self._system
         self.nq, self.nv = sysm.nq, sysm.nv
         self.nx = self.nq + self.nv
@@ -54,8 +54,9 @@ class NativeProcessModel:
         self._panel_mass = sysm.layout.target_panel_mass if sysm.layout.has_target else 0.0
 
     # ------------------------------------------------------------------ parameters
-    # The compiled copy holds the parameters; the Python copy (Pinocchio, for the initial state and
-    # validation) follows lazily, and changes made on it directly are taken up at the next call.
+    # The compiled copy holds the parameters; the System it was built from (the Pinocchio model and
+    # springs: the initial state, parameter validation) follows lazily, and changes made on it directly
+    # are taken up at the next call.
     def _current(self) -> np.ndarray:
         sp = self._system._p
         if not np.array_equal(sp, self._system_p):  # set on `system` directly
@@ -72,7 +73,8 @@ class NativeProcessModel:
 
     @property
     def system(self) -> System:
-        """The Python copy of the plant (Pinocchio), at the model's current parameters."""
+        """The plant's description (:class:`System`: Pinocchio model, springs, inputs) at the model's
+        current parameters."""
         self._current()
         if not np.array_equal(self._system_p, self._p):
             self._system.set_parameters(self._p)

@@ -1,4 +1,12 @@
-"""The plant as a dynamical system: ``ddq = f(q, v, t, u, m)`` with its analytic derivatives.
+"""The plant's description: its model, springs, inputs and parameters, from which the compiled core is built.
+
+The plant's equations, ``M(q) ddq + b(q, v) = tau_springs(q, v) + B u``, their partial derivatives, the
+integrators and the measurements are computed once, in the compiled core
+(:class:`postcapture.dynamics.core.CompiledPlant`, built from a :class:`System` by
+:func:`postcapture.dynamics.packing.pack`). A :class:`System` holds what that core is built from: the
+Pinocchio model, the springs, the input matrix ``B`` and schedule ``u(t)``, the parameter vector. (The tests
+write the same equations a second way, with Pinocchio, in ``tests/pinocchio_reference.py``: the core's
+independent reference.)
 
 Configuration ``q`` (length ``nq``) lives on the Lie group of the tree: the chaser root is a Pinocchio
 free flyer (position of B in N, then the quaternion of R_NB stored as x, y, z, w), every other
@@ -8,7 +16,9 @@ perturbations, as in Pinocchio (``pinocchio.integrate(model, q, dq)``).
 
 Generalised forces: ``tau = tau_springs(q, v) + B u``, where ``u = [F_B (3), tau_B (3), tau_arm]``
 (force at the chaser's origin and torque, both in B; the arm motor torques), and the springs and
-dampers are linear in the elastic coordinates ``e = q[7:]`` (see :class:`SpringSet`).
+dampers are linear in the elastic coordinates ``e = q[7:]`` (see
+:class:`~postcapture.dynamics.assembly.SpringSet`): ``K_e``, ``D_e`` are their stiffness and damping
+matrices at the current scales.
 
 Parameters ``p`` (:mod:`postcapture.dynamics.parameters`): the target hub's ten inertial parameters and
 the spring and damper scales; ``target_mass`` is a shortcut that changes the hub's mass at a fixed
@@ -30,7 +40,7 @@ __all__ = ["System"]
 
 
 class System:
-    """Dynamics of an assembled model under a known input schedule.
+    """An assembled model under a known input schedule: what the compiled core is built from.
 
     Parameters
     ----------
@@ -57,18 +67,12 @@ class System:
         self.n_e = self.nv - self.n_root_v
         self.n_u = inputs.n_inputs
         self.scenario = None
-        sp = assembly.springs
-        self._A = sp.matrix(self.n_e)
-        self._k_nom, self._d_nom, self._r = (np.asarray(x, dtype=float) for x in (sp.k, sp.d, sp.rest))
-        self._init_parameters(sp.groups)
-        self._q_off = self.nq - self.nv
-        self.motor_v = np.asarray(self.layout.motor_v, dtype=int)
-        self._ident = np.eye(self.nv)
+        self._init_parameters(assembly.springs.groups)
         # Input matrix B (nv x n_u): chaser wrench on the root, motor torques on their joints.
         B = np.zeros((self.nv, self.n_u))
         if ff:
             B[:6, :6] = np.eye(6)
-        for i, iv in enumerate(self.motor_v):
+        for i, iv in enumerate(self.layout.motor_v):
             B[iv, 6 + i] = 1.0
         self._custom_B = input_matrix is not None
         if self._custom_B:
@@ -76,9 +80,6 @@ class System:
             if B.shape != (self.nv, self.n_u):
                 raise ValueError(f"input_matrix: expected shape {(self.nv, self.n_u)}, found {B.shape}")
         self.B = B
-        # u -> tau scatter: every default input lands on its own velocity coordinate
-        self._u_rows = np.nonzero(B.any(axis=1))[0]
-        self._u_cols = np.array([int(np.nonzero(B[r])[0][0]) for r in self._u_rows], dtype=int)
         self._set_springs()
 
     # ------------------------------------------------------------------ parameters
@@ -99,7 +100,6 @@ class System:
                 name = panel_names[group[0]]
                 S_k[j, index[f"{name}.{group[1]}_scale"]] = S_d[j, index[f"{name}.damping_scale"]] = 1.0
         self._S_k, self._S_d = S_k, S_d
-        self._scaled_k, self._scaled_d = S_k.any(axis=1), S_d.any(axis=1)
         p = np.ones(n_p)
         if layout.has_target:
             fid = self.model.getFrameId("target")
@@ -160,23 +160,14 @@ class System:
         self.set_parameters(p)
 
     def _set_springs(self) -> None:
-        """Spring and damper matrices at the current scales (new arrays: copies never share them)."""
-        A, p = self._A, self._p
-        k = self._k_nom * np.where(self._scaled_k, self._S_k @ p, 1.0)
-        d = self._d_nom * np.where(self._scaled_d, self._S_d @ p, 1.0)
-        self._k = k
+        """``K_e = A^T diag(k) A`` and ``D_e = A^T diag(d) A`` (n_e x n_e) at the current scales (new
+        arrays: copies never share them); used by the modal analysis at rest."""
+        sp, p = self.assembly.springs, self._p
+        A = sp.matrix(self.n_e)
+        k = np.asarray(sp.k, dtype=float) * np.where(self._S_k.any(axis=1), self._S_k @ p, 1.0)
+        d = np.asarray(sp.d, dtype=float) * np.where(self._S_d.any(axis=1), self._S_d @ p, 1.0)
         self.K_e = A.T @ (k[:, None] * A)
         self.D_e = A.T @ (d[:, None] * A)
-        self._tau0 = A.T @ (k * self._r)
-        # Fast path: without Spong rotors every spring acts on one coordinate and K, D are diagonal.
-        self._diag = bool(np.count_nonzero(self.K_e - np.diag(np.diag(self.K_e))) == 0
-                          and np.count_nonzero(self.D_e - np.diag(np.diag(self.D_e))) == 0)
-        self._k_diag = np.diag(self.K_e).copy()
-        self._d_diag = np.diag(self.D_e).copy()
-        # Full-length copies aligned with v (zero on the root), used with q[nq - nv:] whose tail is e.
-        self._k_full = np.concatenate([np.zeros(self.n_root_v), self._k_diag])
-        self._d_full = np.concatenate([np.zeros(self.n_root_v), self._d_diag])
-        self._tau0_full = np.concatenate([np.zeros(self.n_root_v), self._tau0])
 
     @property
     def target_mass(self) -> float:
@@ -212,138 +203,11 @@ class System:
         other.data = other.model.createData()
         return other
 
-    # ------------------------------------------------------------------ forces
-    def spring_torque(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Generalised spring and damper forces, shape (nv,)."""
-        tau = np.zeros(self.nv)
-        if self.n_e:
-            r, rq = self.n_root_v, self.n_root_q
-            if self._diag:
-                tau[r:] = self._tau0 - self._k_diag * q[rq:] - self._d_diag * v[r:]
-            else:
-                tau[r:] = self._tau0 - self.K_e @ q[rq:] - self.D_e @ v[r:]
-        return tau
-
+    # ------------------------------------------------------------------ inputs
     def input_vector(self, t: float, u_extra=None, left: bool = False) -> np.ndarray:
         """``u(t) + u_extra``, shape (n_u,); ``left`` takes the schedule's left limit at ``t``."""
         u = self.inputs(t, left)
         return u if u_extra is None else u + u_extra
-
-    def force_from_inputs(self, q, v, u) -> np.ndarray:
-        """``tau = tau_springs(q, v) + B u``."""
-        tau = self.spring_torque(q, v)
-        if self._custom_B:
-            return tau + self.B @ u
-        if self.n_root_v:
-            tau[:6] += u[:6]
-        if self.motor_v.size:
-            tau[self.motor_v] += u[6:]
-        return tau
-
-    def generalized_force(self, q, v, t: float, u_extra=None) -> np.ndarray:
-        """``tau = tau_springs + B (u(t) + u_extra)``."""
-        return self.force_from_inputs(q, v, self.input_vector(t, u_extra))
-
-    # ------------------------------------------------------------------ dynamics
-    def acceleration(self, q, v, t: float, u_extra=None) -> np.ndarray:
-        """Generalised acceleration ``ddq`` (nv,) by Featherstone's articulated-body algorithm."""
-        return pin.aba(self.model, self.data, q, v, self.generalized_force(q, v, t, u_extra))
-
-    def acceleration_u(self, q, v, u) -> np.ndarray:
-        """``ddq`` for a given input vector ``u`` (n_u,) instead of the schedule."""
-        return pin.aba(self.model, self.data, q, v, self.force_from_inputs(q, v, u))
-
-    def input_torque(self, u) -> np.ndarray:
-        """``B u + tau_0``: the input forces plus the springs' constant (rest-angle) term, shape (nv,).
-
-        This is what :meth:`acceleration_tau` takes; computed once per integrator stage.
-        """
-        if self._custom_B:
-            return self._tau0_full + self.B @ u
-        tau = self._tau0_full.copy()
-        tau[self._u_rows] += u[self._u_cols]
-        return tau
-
-    def acceleration_tau(self, q, v, tau_u) -> np.ndarray:
-        """``ddq`` given ``tau_u = input_torque(u)`` (the integrator's inner loop)."""
-        if self._diag:
-            tau = tau_u - self._k_full * q[self._q_off :] - self._d_full * v
-            return pin.aba(self.model, self.data, q, v, tau)
-        return pin.aba(self.model, self.data, q, v, tau_u - self._tau0_full + self.spring_torque(q, v))
-
-    def derivatives(self, q, v, t: float, u_extra=None):
-        """See :meth:`derivatives_u`; the inputs come from the schedule at ``t`` plus ``u_extra``."""
-        return self.derivatives_u(q, v, self.input_vector(t, u_extra))
-
-    def derivatives_u(self, q, v, u):
-        """Acceleration and its exact partial derivatives.
-
-        Returns
-        -------
-        ddq : ndarray, shape (nv,)
-        ddq_dq : ndarray, shape (nv, nv)
-            With respect to a right tangent perturbation of ``q``, springs included.
-        ddq_dv : ndarray, shape (nv, nv)
-            Dampers included.
-        Minv : ndarray, shape (nv, nv)
-            Inverse mass matrix (= d ddq / d tau).
-        """
-        tau = self.force_from_inputs(q, v, u)
-        dq, dv, Minv = pin.computeABADerivatives(self.model, self.data, q, v, tau)
-        ddq = self.data.ddq.copy()
-        dq, dv, Minv = np.array(dq), np.array(dv), np.array(Minv)
-        if self.n_e:
-            r = self.n_root_v
-            dq[:, r:] -= Minv[:, r:] @ self.K_e
-            dv[:, r:] -= Minv[:, r:] @ self.D_e
-        return ddq, dq, dv, Minv
-
-    def ddq_dparams(self, q, v, ddq, Minv) -> np.ndarray:
-        """Exact derivative of ``ddq`` with respect to the parameter vector at fixed ``(q, v, inputs)``, (nv, n_p).
-
-        From ``M ddq + b = tau``: ``d ddq/dp = Minv (d tau/dp - d(M ddq + b)/dp)``. The inverse dynamics
-        are linear in the target's inertial parameters: the body carrying the target exerts
-        ``Y(v_j, a_j) pi_j`` (Pinocchio's body regressor, local frame) through its joint Jacobian ``J``,
-        with ``pi_j = L pi_T``; the spring and damper torques are linear in their scales.
-        """
-        out = np.zeros((self.nv, len(self.parameter_names)))
-        if self.layout.has_target:
-            model, data, j = self.model, self.data, self._t_joint
-            pin.forwardKinematics(model, data, q, v, ddq)
-            J = pin.computeJointJacobian(model, data, q, j)
-            Y = pin.bodyRegressor(data.v[j], data.a[j])
-            out[:, :10] = -Minv @ (J.T @ (Y @ self._t_L))
-        if self._k_nom.size:
-            r = self.n_root_v
-            A = self._A
-            stretch = self._k_nom * (A @ q[self.n_root_q :] - self._r)
-            rate = self._d_nom * (A @ v[r:])
-            dtau = -(A.T @ (stretch[:, None] * self._S_k + rate[:, None] * self._S_d))
-            out += Minv[:, r:] @ dtau
-        return out
-
-    def ddq_dmass(self, q, v, ddq, Minv) -> np.ndarray:
-        """Exact derivative of ``ddq`` with respect to the total target mass (see :meth:`dparams_dmass`)."""
-        return self.ddq_dparams(q, v, ddq, Minv) @ self.dparams_dmass()
-
-    # ------------------------------------------------------------------ energy
-    def elastic_energy(self, q) -> float:
-        """Potential energy stored in the springs (J)."""
-        if not self.n_e:
-            return 0.0
-        delta = self._A @ q[self.n_root_q :] - self._r
-        return 0.5 * float(self._k @ (delta * delta))
-
-    def kinetic_energy(self, q, v) -> float:
-        """Kinetic energy of the whole tree (J)."""
-        return float(pin.computeKineticEnergy(self.model, self.data, q, v))
-
-    def damping_power(self, v) -> float:
-        """Power dissipated by the dampers (W, >= 0)."""
-        if not self.n_e:
-            return 0.0
-        w = v[self.n_root_v :]
-        return float(w @ (self.D_e @ w))
 
     # ------------------------------------------------------------------ Lie group
     def integrate(self, q, dq) -> np.ndarray:

@@ -5,8 +5,8 @@ The chain is the one the multibody model simulates, built by
 `postcapture.dynamics.system.System`: a root torsion hinge about the panel's x axis, then N bending
 hinges about y, each carrying a thin rigid plate of mass ``m / N`` and length ``l = L / N``, with
 linear springs (the system's spring set). Nothing here rebuilds that model: the mass matrix comes from
-Pinocchio's CRBA on the assembled model, the stiffness from its spring rows, so what is identified is
-exactly what is simulated.
+the compiled core that simulates it (`postcapture.dynamics.core.CompiledPlant.mass_matrix`), the
+stiffness from its spring rows, so what is identified is exactly what is simulated.
 
 Stations and signs (panel frame P: x along the panel from the root, z along the normal)
 -------------------------------------------------------------------------------------
@@ -28,7 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 import scipy.linalg as sla
 from pydantic import ValidationError
 
@@ -36,6 +35,7 @@ from postcapture.config.loader import problems_from_validation
 from postcapture.config.schema import Panel
 from postcapture.core.errors import PanelModelError, Problem
 from postcapture.dynamics.assembly import assemble_panel_chain
+from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.modes import structural_modes
 from postcapture.dynamics.system import System
 
@@ -228,7 +228,7 @@ class LumpedChain:
     system : System
         The chain as simulated (``System(assemble_panel_chain(panel))``).
     mass_matrix : ndarray, shape (N + 1, N + 1)
-        Joint-space mass matrix at rest, from Pinocchio's CRBA (kg m^2).
+        Joint-space mass matrix at rest, from the compiled core (kg m^2).
     torsion_index : int
         Velocity index of the torsion hinge.
     bending_index : ndarray of int, shape (N,)
@@ -248,8 +248,7 @@ class LumpedChain:
         lay = sysm.layout.panels[0]
         self.torsion_index = int(lay.torsion_v)
         self.bending_index = np.asarray(lay.bending_v, dtype=int)
-        m = pin.crba(sysm.model, sysm.data, sysm.assembly.q_rest)
-        self.mass_matrix = np.triu(m) + np.triu(m, 1).T
+        self.mass_matrix = CompiledPlant(sysm).mass_matrix(sysm.assembly.q_rest)
         coupling = np.max(np.abs(self.mass_matrix[self.torsion_index, self.bending_index]))
         if coupling > 1e-12 * np.max(np.abs(self.mass_matrix)):
             raise PanelModelError([Problem("chain", "torsion decoupled from bending at rest",
