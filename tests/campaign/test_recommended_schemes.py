@@ -72,3 +72,32 @@ def test_fifty_dispersed_runs_are_consistent(envisat, tmp_path):
         lo, hi = c["nees_band"]
         assert lo <= c["nees_mean"] <= hi, (case, c)
         assert c["mass_error_rms_kg"] <= 0.01 * envisat.target.mass, (case, c)
+
+
+def test_a_plant_copy_that_keeps_failing_ends_its_filter_not_the_run(envisat, monkeypatch):
+    """From 5 s on every prediction of the filters' plant copy fails: each scheme reports the divergence
+    and its re-initialisation, then the second failure, where its estimates end; the dual's attitude
+    (the MEKF, which needs no plant) goes on to the end, and the run completes."""
+    import postcapture as pc
+    from postcapture.core.errors import SimulationError
+    from postcapture.dynamics.process_model import NativeProcessModel
+
+    real = NativeProcessModel.predict
+
+    def failing(self, x, t, dt, *args, **kwargs):
+        if t >= 5.0:
+            raise SimulationError(f"injected failure at t = {t:.6g} s")
+        return real(self, x, t, dt, *args, **kwargs)
+
+    monkeypatch.setattr(NativeProcessModel, "predict", failing)
+    res = pc.run(envisat, profile="realistic", duration=10.0, cases=["dual", "joint"], crlb=False, workers=0)
+    ds = res.to_xarray()
+    t = ds["time"].values
+    for case in ("dual", "joint"):
+        msg = res.summary["cases"][case]["message"]
+        assert "diverged at t = 5 s" in msg and "failed again at t = 5 s" in msg, msg
+        mass = ds["mass_est"].sel(case=case).values
+        assert np.all(np.isfinite(mass[t <= 5.0])) and np.all(np.isnan(mass[t > 5.05]))
+    att = ds["attitude_error"].sel(case="dual").values
+    assert np.all(np.isfinite(att[..., -1]))
+    assert np.all(np.isnan(ds["attitude_error"].sel(case="joint").values[..., -1]))

@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from postcapture.core.errors import DomainError, SimulationError
 from postcapture.estimation.dual import SensorSuite, on_grid
-from postcapture.estimation.filter import FilterStatus, Measurement
+from postcapture.estimation.filter import FilterEvent, FilterStatus, Measurement
 from postcapture.estimation.history import EstimateHistory, StepFlag
 
 __all__ = ["SchemeResult", "run_joint_scheme", "run_dual_scheme"]
@@ -88,6 +89,9 @@ def _grids(sensors: SensorSuite, t_grid):
 def _finish(name, rec: _Recorder, t_grid, labels, counts, events, filt, wall0):
     diverged = [e.t for evs in events.values() for e in evs if e.kind == "diverged"]
     message = "completed" if not diverged else f"diverged at t = {min(diverged):.6g} s and re-initialised"
+    stopped = [e.t for e in getattr(filt, "events", ()) if e.kind == "diverged" and e.cause.startswith("stopped")]
+    if stopped:
+        message += f"; its plant copy failed again at t = {stopped[0]:.6g} s, where its estimates end"
     for t_d in diverged:  # marked where it happened; the filter went on
         rec.flags[min(int(np.searchsorted(t_grid, t_d)), t_grid.size - 1)] |= np.uint8(int(StepFlag.DIVERGED))
     history = EstimateHistory(
@@ -149,32 +153,47 @@ def _run(mekf, filt, sensors, t_grid, R_gyro, R_star, R_accel, panel_mass, progr
 
     record(0)
     last = None
+    lost = False  # the plant filter failed again right after its re-initialisation: it stops, the run goes on
     for k in range(n_t - 1):
         t, t1 = t_grid[k], t_grid[k + 1]
         w = gyro[:, k]
-        if mekf is None:
-            filt.predict(t, dt)
-            r = filt.update(Measurement("gyro", t1, w, R_gyro))
-            rec.flag(k + 1, r, StepFlag.INPUT_MISSING)
-            r = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
-        else:
-            if np.all(np.isfinite(w)):
-                last = w
+        try:
+            if mekf is None:
+                if lost:
+                    break
+                filt.predict(t, dt)
+                r = filt.update(Measurement("gyro", t1, w, R_gyro))
+                rec.flag(k + 1, r, StepFlag.INPUT_MISSING)
+                r = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
             else:
-                rec.flags[k + 1] |= StepFlag.INPUT_MISSING
-            bias, P_b = mekf.bias_B.copy(), mekf.P[3:, 3:].copy()
-            if last is not None:
-                mekf.predict(t, dt, last)
-            r = mekf.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
-            filt.predict(t, dt)
-            filt.update(Measurement("gyro", t1, w - bias, R_gyro + P_b))
-        rec.flag(k + 1, r)
-        if r is not None and r.accepted:
-            rec.nis[k + 1] = r.nis
-        r = filt.update(Measurement("accelerations", t1, z[:, k + 1], Rz))
-        if r is not None and r.accepted:
-            rec.mass_nis[k + 1] = r.nis
-        record(k + 1)
+                if np.all(np.isfinite(w)):
+                    last = w
+                else:
+                    rec.flags[k + 1] |= StepFlag.INPUT_MISSING
+                bias, P_b = mekf.bias_B.copy(), mekf.P[3:, 3:].copy()
+                if last is not None:
+                    mekf.predict(t, dt, last)
+                r = mekf.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
+                if not lost:
+                    filt.predict(t, dt)
+                    filt.update(Measurement("gyro", t1, w - bias, R_gyro + P_b))
+            rec.flag(k + 1, r)
+            if r is not None and r.accepted:
+                rec.nis[k + 1] = r.nis
+            if not lost:
+                r = filt.update(Measurement("accelerations", t1, z[:, k + 1], Rz))
+                if r is not None and r.accepted:
+                    rec.mass_nis[k + 1] = r.nis
+        except (SimulationError, DomainError) as exc:
+            lost = True  # its histories end here (NaN after); a dual's attitude filter goes on without it
+            filt.status = FilterStatus.DIVERGED
+            filt.events.append(FilterEvent(float(t), "diverged", f"stopped: the plant copy failed again: {exc}"))
+        if lost:
+            rec.q[:, k + 1] = np.nan if mekf is None else mekf.q_BN
+            if mekf is not None:
+                rec.P[..., k + 1] = mekf.P
+        else:
+            record(k + 1)
         if progress is not None and k % 50 == 0:
             progress((k + 1) / (n_t - 1))
     labels = ("dtheta_x", "dtheta_y", "dtheta_z", "dbias_x", "dbias_y", "dbias_z")
