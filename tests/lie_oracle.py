@@ -18,18 +18,8 @@ from scipy.linalg.lapack import dgetrf as _getrf, dgetrs as _getrs
 import pinocchio_reference as ref
 from postcapture.core.errors import SimulationError
 from postcapture.dynamics.integrators import TABLEAUX, Tableau
+from postcapture.dynamics.liegroup import ad
 from postcapture.dynamics.system import System
-
-def ad(xi: np.ndarray) -> np.ndarray:
-    """Matrix of ``ad_xi`` on se(3): ``ad(xi) @ V == [xi, V]`` (6x6)."""
-    rx, ry, rz, px, py, pz = xi
-    P = np.array([[0.0, -pz, py], [pz, 0.0, -px], [-py, px, 0.0]])
-    R = np.array([[0.0, -rz, ry], [rz, 0.0, -rx], [-ry, rx, 0.0]])
-    out = np.zeros((6, 6))
-    out[:3, :3] = P
-    out[:3, 3:] = R
-    out[3:, 3:] = P
-    return out
 
 
 def dexpinv(xi: np.ndarray) -> np.ndarray:
