@@ -22,7 +22,7 @@ from pathlib import Path
 
 from postcapture.core.errors import InputError, OutputPathError, Problem, ScenarioError
 
-__all__ = ["OPTION_FIELDS", "Pass", "simulate", "run", "campaign", "modes", "fmu_export", "fmu_info",
+__all__ = ["OPTION_FIELDS", "Pass", "simulate", "run", "campaign", "modes", "fmu_export", "fmu_info", "truth",
            "panel_calibrate", "bench", "default_simulate_out"]
 
 OPTION_FIELDS = {
@@ -200,14 +200,25 @@ def simulate(args) -> None:
                                         step=sim.step, sample_period=sim.sample_period, integrator=sim.integrator))
 
 
+def truth(args, scenario):
+    """The truth a command asked for (``--truth-scenario`` or ``--truth-draw``), or None for the nominal one."""
+    from postcapture.config import load_scenario
+    from postcapture.dynamics.truth import check_priors, draw_truth, truth_from_scenario
+
+    if getattr(args, "truth_scenario", None):
+        return truth_from_scenario(scenario, load_scenario(args.truth_scenario), args.truth_scenario)
+    if getattr(args, "truth_draw", None) is not None:
+        check_priors(scenario)
+        return draw_truth(scenario, args.truth_draw)
+    return None
+
+
 def _truth_options(check: Pass, args, scenario) -> None:
     if getattr(args, "truth_scenario", None) is not None:
         if not check.input_file("--truth-scenario", args.truth_scenario, "an existing scenario TOML file"):
             return
     try:
-        from postcapture.cli.commands import _truth
-
-        _truth(args, scenario)
+        truth(args, scenario)
     except ScenarioError as exc:
         option = "--truth-scenario" if getattr(args, "truth_scenario", None) else "--truth-draw"
         check.absorb(exc, prefix=f"{option}: ")

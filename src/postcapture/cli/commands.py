@@ -133,7 +133,7 @@ def cmd_run(args) -> int:
     from postcapture.report.table import results_table
 
     scenario = load_scenario(args.scenario)
-    truth = _truth(args, scenario)
+    truth = checks.truth(args, scenario)
     plant = args.plant
     cases = args.cases
     if plant != "native":
@@ -180,19 +180,6 @@ def cmd_run(args) -> int:
     return 0
 
 
-def _truth(args, scenario):
-    """The truth a command asked for (``--truth-scenario`` or ``--truth-draw``), or None for the nominal one."""
-    from postcapture.config import load_scenario
-    from postcapture.dynamics.truth import check_priors, draw_truth, truth_from_scenario
-
-    if getattr(args, "truth_scenario", None):
-        return truth_from_scenario(scenario, load_scenario(args.truth_scenario), args.truth_scenario)
-    if getattr(args, "truth_draw", None) is not None:
-        check_priors(scenario)
-        return draw_truth(scenario, args.truth_draw)
-    return None
-
-
 def cmd_campaign(args) -> int:
     checks.campaign(args)  # everything given, checked before any work
     from postcapture.studies.montecarlo import run_campaign
@@ -204,7 +191,7 @@ def cmd_campaign(args) -> int:
     if args.dispersed and args.truth_scenario:
         raise ScenarioError([Problem("--truth-scenario", "no fixed truth with --dispersed (each run draws its own)",
                                      args.truth_scenario)])
-    truth = _truth(args, scenario)
+    truth = checks.truth(args, scenario)
     with _display(args, "campaign") as shown:
         shown.phase(f"{args.runs} runs")
 
