@@ -87,6 +87,13 @@ def _temporaries(folder: Path) -> list[str]:
     return [p.name for p in folder.rglob("*") if TAG in p.name]
 
 
+def _ctrl_c_reaches_the_command() -> None:
+    """Popen's preexec_fn: SIGINT back to its default in the command (a test run started in the background
+    by a non-interactive shell inherits SIGINT ignored, and Python then keeps ignoring it, as a background
+    job should)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _env(**extra):
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", MPLBACKEND="Agg")
     env.update(extra)
@@ -178,7 +185,7 @@ def test_full_file_system_leaves_the_previous_set(previous_set, tmp_path, enospc
 def test_interrupt_stops_the_workers_at_once(tmp_path, how, status, line):
     proc = subprocess.Popen([EXE, "run", "--duration", "60", "--no-plots", "--out", str(tmp_path / "r")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                            env=_env())
+                            env=_env(), preexec_fn=_ctrl_c_reaches_the_command)
     deadline = time.monotonic() + 240
     while len(kids := _children(proc.pid)) < 2:  # the case pool is running
         assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read() if proc.poll() else ""
@@ -202,7 +209,7 @@ def test_interrupted_campaign_workers_print_no_traceback(tmp_path):
     """The Dask workers of a local cluster leave Ctrl-C to the parent as the case pool's do."""
     proc = subprocess.Popen([EXE, "campaign", "--runs", "6", "--duration", "30", "--cases", "ekf_flexible", "--no-plots",
                              "--out", str(tmp_path / "c")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, env=_env())
+                            start_new_session=True, env=_env(), preexec_fn=_ctrl_c_reaches_the_command)
     deadline = time.monotonic() + 240
     while len(_children(proc.pid)) < 3:  # the local cluster's workers (and the resource tracker)
         assert proc.poll() is None and time.monotonic() < deadline
