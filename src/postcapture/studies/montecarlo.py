@@ -396,10 +396,10 @@ def _dask_client(scheduler: str | None, workers: int):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                    dashboard_address=":0", silence_logs=logging.ERROR,
                                    preload=["postcapture.studies.pool"])  # workers leave Ctrl-C to us
-            client = Client(cluster)
+            client = Client(cluster, set_as_default=False)
         else:
             try:
-                client = Client(scheduler, timeout="5s")
+                client = Client(scheduler, timeout="5s", set_as_default=False)
             except (OSError, TimeoutError, ValueError) as exc:
                 raise ScenarioError([Problem("--scheduler", "the address of a running Dask scheduler (tcp://HOST:PORT)",
                                              f"{scheduler!r}: {exc}")]) from None
@@ -520,7 +520,9 @@ def run_campaign(
                 shared = None if dispersed else client.submit(simulate_truth, plan, pure=False)
                 futures = [client.submit(_task, payload, r, shared, pure=False) for r in todo]
                 crlb_future = client.submit(_crlb, plan, pure=False) if crlb else None
-                for fut in as_completed(futures):
+                # as_completed waits on the default client's event loop unless told; a caller with a client of
+                # its own (another loop) would make the futures' events refuse the second loop
+                for fut in as_completed(futures, loop=client.loop):
                     done_one(fut.result())
                     fut.release()
                 if crlb_future is not None:
