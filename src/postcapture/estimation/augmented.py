@@ -2,7 +2,7 @@ r"""The model-based augmented EKF: plant state, sensor biases and plant paramete
 
 Error state (named by :attr:`AugmentedEKF.labels`)::
 
-    [ dx (n: the plant's tangent) | db_gyro (3, optional) | db_accel (3) | d eta (estimated) |
+    [ dx (n: the plant's tangent) | db_gyro (3) | db_accel (3) | d eta (estimated) |
       d eta (considered) | d theta_clone (3) ]
 
 ``eta`` are the filter's coordinates of the plant's parameters (:class:`~postcapture.estimation.
@@ -57,8 +57,6 @@ class AugmentedTuning:
         Process noise added per step to the plant: one variance for every velocity coordinate, one per
         velocity coordinate ((rad/s)^2 or (m/s)^2), or a full covariance over the plant's tangent: the
         model error the parameters do not describe.
-    estimate_gyro_bias : bool
-        Carry the gyro bias (the joint scheme); without it, the gyro samples must come corrected.
     gate_probability : float or None
     recovery : RecoveryPolicy
     """
@@ -71,7 +69,6 @@ class AugmentedTuning:
     P0_accel_bias: float
     P0_state: float = 1e-16
     model_noise: float | np.ndarray = 0.0
-    estimate_gyro_bias: bool = True
     gate_probability: float | None = 0.9999
     recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
 
@@ -110,20 +107,19 @@ class AugmentedEKF(FilterBase):
         n = model.n
         self.n = n
         self.att = model.tangent_attitude
-        nbg = 3 if tuning.estimate_gyro_bias else 0
         k = params.size
-        self.i_bg = slice(n, n + nbg)
-        self.i_ba = slice(n + nbg, n + nbg + 3)
-        self.i_eta = slice(n + nbg + 3, n + nbg + 3 + k)
-        self.i_est = slice(n + nbg + 3, n + nbg + 3 + k - n_consider)
-        self.i_con = slice(n + nbg + 3 + k - n_consider, n + nbg + 3 + k)
-        self.i_clone = slice(n + nbg + 3 + k, n + nbg + 6 + k)
+        self.i_bg = slice(n, n + 3)
+        self.i_ba = slice(n + 3, n + 6)
+        self.i_eta = slice(n + 6, n + 6 + k)
+        self.i_est = slice(n + 6, n + 6 + k - n_consider)
+        self.i_con = slice(n + 6 + k - n_consider, n + 6 + k)
+        self.i_clone = slice(n + 6 + k, n + 9 + k)
         N = self.i_clone.stop
         self.N = N
         labels = [f"plant[{i}]" for i in range(n)]
         for i, axis in zip(range(self.att.start, self.att.stop), "xyz"):
             labels[i] = f"dtheta_{axis}"
-        labels += [f"gyro_bias_{a}" for a in "xyz"][:nbg] + [f"accel_bias_{a}" for a in "xyz"]
+        labels += [f"gyro_bias_{a}" for a in "xyz"] + [f"accel_bias_{a}" for a in "xyz"]
         labels += list(params.labels) + [f"clone_{a}" for a in "xyz"]
         self.labels = tuple(labels)
         self.eta = np.array(eta0, dtype=float)
@@ -142,7 +138,7 @@ class AugmentedEKF(FilterBase):
         P = np.zeros((N, N))
         P[:n, :n] = tuning.P0_state * np.eye(n)
         P[self.att, self.att] = tuning.P0_attitude
-        P[self.i_bg, self.i_bg] = tuning.P0_gyro_bias * np.eye(nbg)
+        P[self.i_bg, self.i_bg] = tuning.P0_gyro_bias * np.eye(3)
         P[self.i_ba, self.i_ba] = tuning.P0_accel_bias * np.eye(3)
         P[self.i_eta, self.i_eta] = P_eta
         Sx = S0 @ params.jacobian(self.eta)  # d x0 / d eta
@@ -190,7 +186,7 @@ class AugmentedEKF(FilterBase):
         left = P[:, :n] @ Phi_x.T + P[:, self.i_eta] @ Phi_eta.T
         P[:, :n] = left
         Q = self._Q_rate.copy()
-        Q[self.i_bg, self.i_bg] = tun.sigma_gyro_bias_walk**2 * dt * np.eye(self.i_bg.stop - self.i_bg.start)
+        Q[self.i_bg, self.i_bg] = tun.sigma_gyro_bias_walk**2 * dt * np.eye(3)
         Q[self.i_ba, self.i_ba] = tun.sigma_accel_bias_walk**2 * dt * np.eye(3)
         self.P = kalman.symmetrize(P + Q)
         self.x = pred.x
@@ -222,12 +218,11 @@ class AugmentedEKF(FilterBase):
                 return None
             dt = self._dt
             phi = rot.box_minus(self.model.attitude(self.x), self._q_clone)
-            nu = value - phi / dt - (self.gyro_bias if self.tuning.estimate_gyro_bias else 0.0)
+            nu = value - phi / dt - self.gyro_bias
             H = np.zeros((3, N))
             H[:, self.att] = rot.right_jacobian_inv(phi) / dt
             H[:, self.i_clone] = -rot.left_jacobian_inv(phi) / dt
-            if self.tuning.estimate_gyro_bias:
-                H[:, self.i_bg] = np.eye(3)
+            H[:, self.i_bg] = np.eye(3)
             R = z.R
         elif z.kind == "accelerations":
             ok = np.isfinite(value)
@@ -261,8 +256,7 @@ class AugmentedEKF(FilterBase):
     def _apply(self, dx) -> None:
         n = self.n
         self.x = self.model.retract(self.x, dx[:n])
-        if self.tuning.estimate_gyro_bias:
-            self.gyro_bias = self.gyro_bias + dx[self.i_bg]
+        self.gyro_bias = self.gyro_bias + dx[self.i_bg]
         self.accel_bias = self.accel_bias + dx[self.i_ba]
         self.eta = self.eta + dx[self.i_eta]
         self._q_clone = rot.box_plus(self._q_clone, dx[self.i_clone])

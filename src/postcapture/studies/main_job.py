@@ -184,12 +184,12 @@ def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
     R_accel = np.concatenate([np.full(3, prof.accelerometer.sigma**2), np.full(plan.scenario.n_arm, prof.joints.sigma**2)])
     panel_mass = sum(p.mass for p in plan.scenario.target.panels)
     if spec.scheme == "joint":
-        filt = build_augmented(plan, model, q0, estimate_gyro_bias=True, name=spec.name)
+        filt = build_augmented(plan, model, q0, name=spec.name)
         return run_joint_scheme(filt, sensors, plan.t_grid, R_gyro=R_gyro, R_star=tun.star_covariance, R_accel=R_accel,
                                 panel_mass=panel_mass, progress=progress, name=spec.name)
     cfg = dual_config(spec, prof, plan.profile_name, tun, plan.scenario.n_arm, plan.initial_mass)
     mekf = MEKF(cfg.mekf, q0, cfg.mekf_P0, t0=plan.t_grid[0])
-    filt = build_augmented(plan, model, q0, estimate_gyro_bias=False, name=f"{spec.name}/parameters")
+    filt = build_augmented(plan, model, q0, name=f"{spec.name}/parameters")
     return run_dual_scheme(mekf, filt, sensors, plan.t_grid, R_gyro=R_gyro, R_accel=R_accel, panel_mass=panel_mass,
                            progress=progress, name=spec.name)
 

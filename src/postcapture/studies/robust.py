@@ -186,7 +186,7 @@ def model_noise_vector(model, noise) -> np.ndarray:
     return out
 
 
-def build_augmented(plan: RunPlan, model, q0_BN, *, estimate_gyro_bias: bool, name: str,
+def build_augmented(plan: RunPlan, model, q0_BN, *, name: str,
                     model_noise=None) -> AugmentedEKF:
     """An :class:`AugmentedEKF` for a plan: the groups, the prior, the tunings, the initial state.
 
@@ -210,7 +210,6 @@ def build_augmented(plan: RunPlan, model, q0_BN, *, estimate_gyro_bias: bool, na
         P0_accel_bias=tun.accelerometer_bias_initial_sigma**2,
         P0_state=1e-16,
         model_noise=model_noise_vector(model, tun.model_noise if model_noise is None else model_noise),
-        estimate_gyro_bias=estimate_gyro_bias,
         gate_probability=tun.gate_probability,
     )
     return AugmentedEKF(model, x0, params=pmap, n_consider=pmap.size - est_map.size, eta0=eta0, P_eta=P_eta, S0=S0,
