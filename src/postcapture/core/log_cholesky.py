@@ -47,12 +47,26 @@ def pseudo_inertia(pi) -> np.ndarray:
     return J
 
 
+def _linear_map() -> np.ndarray:
+    """The 10 x 16 matrix ``A`` with ``pi = A vec(J)`` (row-major ``vec``): ``m = J_33``, ``h = J[:3, 3]``,
+    ``I = tr(Sigma) 1 - Sigma``."""
+    A = np.zeros((10, 16))
+    A[0, 15] = 1.0
+    for r in range(3):
+        A[1 + r, 4 * r + 3] = 1.0
+    for k, (i, j) in enumerate(_SYM):
+        if i == j:
+            A[4 + k, [0, 5, 10]] = 1.0
+        A[4 + k, 4 * i + j] -= 1.0
+    return A
+
+
+_A = _linear_map()
+
+
 def parameters_from_pseudo_inertia(J) -> np.ndarray:
     """Ten inertial parameters of a pseudo-inertia (``I = tr(Sigma) 1 - Sigma``); linear in ``J``."""
-    J = np.asarray(J, dtype=float)
-    S = J[:3, :3]
-    I = np.trace(S) * np.eye(3) - S
-    return np.concatenate([[J[3, 3]], J[:3, 3], [I[i, j] for i, j in _SYM]])
+    return _A @ np.asarray(J, dtype=float).reshape(16)
 
 
 def _U(theta) -> np.ndarray:
@@ -90,22 +104,21 @@ def theta_from_pi(pi) -> np.ndarray:
                      V[2, 3]])
 
 
+# where each off-diagonal coordinate of theta sits in U (flat index of the 4 x 4)
+_OFF = {4: 1, 5: 6, 6: 2, 7: 3, 8: 7, 9: 11}
+
+
 def dpi_dtheta(theta) -> np.ndarray:
     """Jacobian ``d pi / d theta`` (10 x 10), exact: ``dJ = dU U^T + U dU^T`` and ``pi`` is linear in ``J``."""
     theta = np.asarray(theta, dtype=float)
     U = _U(theta)
+    dU = np.zeros((10, 16))
+    dU[0] = U.reshape(16)  # d U / d alpha = U
+    for k in (1, 2, 3):
+        dU[k, 5 * (k - 1)] = U[k - 1, k - 1]
     e = np.exp(theta[0])
-    positions = {4: (0, 1), 5: (1, 2), 6: (0, 2), 7: (0, 3), 8: (1, 3), 9: (2, 3)}
-    out = np.empty((10, 10))
-    for k in range(10):
-        if k == 0:
-            dU = U
-        elif k <= 3:
-            dU = np.zeros((4, 4))
-            dU[k - 1, k - 1] = U[k - 1, k - 1]
-        else:
-            dU = np.zeros((4, 4))
-            dU[positions[k]] = e
-        dJ = dU @ U.T + U @ dU.T
-        out[:, k] = parameters_from_pseudo_inertia(dJ)
-    return out
+    for k, flat in _OFF.items():
+        dU[k, flat] = e
+    G = dU.reshape(10, 4, 4) @ U.T  # dU U^T for every coordinate
+    dJ = G + G.transpose(0, 2, 1)
+    return (dJ.reshape(10, 16) @ _A.T).T

@@ -73,7 +73,7 @@ def _hamilton(p, q):
 def normalize(q):
     """Return the unit quaternion with ``w >= 0`` that represents the same rotation as ``q``."""
     q = np.asarray(q, dtype=float)
-    q = q / np.linalg.norm(q, axis=0)
+    q = q / np.sqrt(np.einsum("i...,i...->...", q, q))
     return q * np.where(q[0] < 0.0, -1.0, 1.0)
 
 
@@ -144,7 +144,7 @@ def quat_to_pinocchio(q):
 def exp_map(theta):
     """Quaternion of the rotation vector ``theta`` (rad): ``(cos(|t|/2), sin(|t|/2) t/|t|)``."""
     theta = np.asarray(theta, dtype=float)
-    a = np.linalg.norm(theta, axis=0)
+    a = np.sqrt(np.einsum("i...,i...->...", theta, theta))
     half = 0.5 * a
     # sin(a/2)/a with its Taylor series near zero
     small = a < 1e-4
@@ -157,7 +157,7 @@ def log_map(q):
     """Rotation vector (rad) of a quaternion, taking the shortest rotation (angle in [0, pi])."""
     q = normalize(q)
     v = q[1:4]
-    s = np.linalg.norm(v, axis=0)
+    s = np.sqrt(np.einsum("i...,i...->...", v, v))
     angle = 2.0 * np.arctan2(s, q[0])
     small = s < 1e-8
     safe = np.where(small, 1.0, s)

@@ -160,14 +160,28 @@ class System:
         self.set_parameters(p)
 
     def _set_springs(self) -> None:
-        """``K_e = A^T diag(k) A`` and ``D_e = A^T diag(d) A`` (n_e x n_e) at the current scales (new
-        arrays: copies never share them); used by the modal analysis at rest."""
-        sp, p = self.assembly.springs, self._p
-        A = sp.matrix(self.n_e)
-        k = np.asarray(sp.k, dtype=float) * np.where(self._S_k.any(axis=1), self._S_k @ p, 1.0)
-        d = np.asarray(sp.d, dtype=float) * np.where(self._S_d.any(axis=1), self._S_d @ p, 1.0)
-        self.K_e = A.T @ (k[:, None] * A)
-        self.D_e = A.T @ (d[:, None] * A)
+        """Forget the spring matrices of the former scales; :attr:`K_e` and :attr:`D_e` are formed when read
+        (a filter's plant copy changes its parameters at every step and never reads them)."""
+        self._springs = None
+
+    def _spring_matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._springs is None:
+            sp, p = self.assembly.springs, self._p
+            A = sp.matrix(self.n_e)
+            k = np.asarray(sp.k, dtype=float) * np.where(self._S_k.any(axis=1), self._S_k @ p, 1.0)
+            d = np.asarray(sp.d, dtype=float) * np.where(self._S_d.any(axis=1), self._S_d @ p, 1.0)
+            self._springs = (A.T @ (k[:, None] * A), A.T @ (d[:, None] * A))
+        return self._springs
+
+    @property
+    def K_e(self) -> np.ndarray:
+        """``K_e = A^T diag(k) A`` (n_e x n_e) at the current scales; used by the modal analysis at rest."""
+        return self._spring_matrices()[0].copy()
+
+    @property
+    def D_e(self) -> np.ndarray:
+        """``D_e = A^T diag(d) A`` (n_e x n_e) at the current scales."""
+        return self._spring_matrices()[1].copy()
 
     @property
     def target_mass(self) -> float:
