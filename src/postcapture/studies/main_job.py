@@ -275,8 +275,8 @@ def run_main_job(
     sensors, dq0 = draw_sensors(plan, traj, plan.seed)
     base = {"plan": plan, "sensors": sensors, "q_true0": traj["q_BN"][:, 0], "dq0": dq0}
     jobs = [(_run_case, {**base, "case": c}, c) for c in plan.cases]
-    if crlb:
-        jobs.append((_run_crlb, base, "crlb"))
+    if crlb:  # the longest job first, so that it does not start last on one worker while the other idles
+        jobs.insert(0, (_run_crlb, base, "crlb"))
     outputs = run_jobs(jobs, workers=workers, on_progress=tell, on_done=lambda name, done, total: tell(name, 1.0))
     truth_info = plan.truth.describe(scenario)
     m_true = truth_info["target_mass"]
