@@ -66,16 +66,17 @@ class Prior(Frozen):
     def sample(self, rng: np.random.Generator, size=None, *, factor: bool = False):
         """Draws (offsets around 0, or factors around 1)."""
         if self.kind == "normal":
-            n = rng.standard_normal(size)
             t = self.truncate
+            if size is None:  # one draw: plain floats (the same stream as the array path)
+                n = rng.standard_normal()
+                while abs(n) > t:
+                    n = rng.standard_normal()
+                return (1.0 if factor else 0.0) + self.sigma * n
+            n = rng.standard_normal(size)
             bad = np.abs(n) > t
             while np.any(bad):  # truncation by rejection (t >= a fraction of a sigma: few rounds)
-                if np.ndim(n) == 0:
-                    n = rng.standard_normal()
-                    bad = abs(n) > t
-                else:
-                    n[bad] = rng.standard_normal(int(np.count_nonzero(bad)))
-                    bad = np.abs(n) > t
+                n[bad] = rng.standard_normal(int(np.count_nonzero(bad)))
+                bad = np.abs(n) > t
             return (1.0 if factor else 0.0) + self.sigma * n
         if self.kind == "uniform":
             return rng.uniform(self.low, self.high, size)
