@@ -286,8 +286,10 @@ class AugmentedEKF(FilterBase):
         nv = self.n // 2
         if kind == "star_tracker":
             self._inflate(np.r_[np.arange(self.att.start, self.att.stop), np.arange(self.i_bg.start, self.i_bg.stop)])
+            self.P[self.i_bg, self.i_bg] += self.policy.gyro_bias_bump**2 * np.eye(3)
         elif kind == "gyro":
             self._inflate(np.r_[np.arange(nv + 3, nv + 6), np.arange(self.i_bg.start, self.i_bg.stop)])
+            self.P[self.i_bg, self.i_bg] += self.policy.gyro_bias_bump**2 * np.eye(3)
         else:  # the accelerations: the plant's velocities and the accelerometer bias; a transient the model
             # misses (a torque step ringing the arm) is the state's to absorb, not a reason to forget the mass
             self._inflate(np.r_[np.arange(nv, self.n), np.arange(self.i_ba.start, self.i_ba.stop)])

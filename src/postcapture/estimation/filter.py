@@ -34,6 +34,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import chi2
 
+from postcapture.core.units import DEG_PER_HOUR
+
 __all__ = ["FilterStatus", "Measurement", "FilterEvent", "RecoveryPolicy", "FilterBase"]
 
 logger = logging.getLogger(__name__)
@@ -90,6 +92,9 @@ class RecoveryPolicy:
         out (1 - 1e-6) to keep false alarms rare over thousands of windows.
     inflation : float
         Factor on the covariance blocks a recovery inflates.
+    gyro_bias_bump : float
+        1-sigma (rad/s) added to a carried gyro bias by a recovery from star-tracker or gyro innovations:
+        a factor alone does little to a bias variance that has converged far below a bias step's size.
     max_recoveries : int
         Recoveries within ``recovery_window`` seconds that mean divergence.
     recovery_window : float
@@ -100,6 +105,7 @@ class RecoveryPolicy:
     nis_window: int = 50
     nis_probability: float = 1.0 - 1e-6
     inflation: float = 10.0
+    gyro_bias_bump: float = DEG_PER_HOUR
     max_recoveries: int = 6
     recovery_window: float = 60.0
 

@@ -41,7 +41,7 @@ from postcapture.core.errors import (
     TimeGridError,
 )
 from postcapture.core.timegrid import default_tolerance, merge_times
-from postcapture.core.units import DEG, DEG_PER_HOUR
+from postcapture.core.units import DEG
 from postcapture.estimation.attitude_ekf import REACQUIRE_ATTITUDE
 from postcapture.estimation.filter import FilterBase, Measurement
 from postcapture.estimation.history import EstimateHistory, SampledSignal, StepFlag
@@ -179,9 +179,8 @@ class MEKF(FilterBase):
     recovery : RecoveryPolicy, optional
         When a run of star-tracker innovations says the covariance no longer covers the error (a gyro
         bias step, a lost attitude), the attitude and bias covariances are inflated and the bias gets
-        a one-off process-noise bump of ``bias_bump`` (rad/s) per axis; see :mod:`.filter`.
-    bias_bump : float
-        1-sigma added to the bias on a recovery (rad/s); by default 1 deg/h.
+        a one-off bump of the policy's ``gyro_bias_bump`` (rad/s, 1 deg/h by default) per axis; see
+        :mod:`.filter`.
     reacquire_bias : float
         1-sigma of the bias after a divergence, when the filter starts again from the next star-tracker
         samples (rad/s); by default 1 deg/s (the attitude is lost: the bias may be anything).
@@ -190,7 +189,7 @@ class MEKF(FilterBase):
     labels = ERROR_LABELS
 
     def __init__(self, tuning: MEKFTuning, q0_BN, P0, *, bias0_B=None, t0: float = 0.0, recovery=None,
-                 bias_bump: float = DEG_PER_HOUR, reacquire_bias: float = DEG):
+                 reacquire_bias: float = DEG):
         self._init_base(tuning.name, recovery, tuning.gate_probability)
         self.tuning = tuning
         self.q_BN = rot.normalize(_vec(q0_BN, "q0_BN", 4))
@@ -203,7 +202,6 @@ class MEKF(FilterBase):
         self.P = kalman.symmetrize(P0)
         self._P0 = self.P.copy()
         self.t = float(t0)
-        self.bias_bump = float(bias_bump)
         self.reacquire_bias = float(reacquire_bias)
         self.counts["inputs_missing"] = 0
         self._Q_cache: dict[float, np.ndarray] = {}
@@ -258,7 +256,7 @@ class MEKF(FilterBase):
     def _recover(self, kind: str, t: float) -> None:
         d = np.sqrt(self.policy.inflation)
         self.P = self.P * d * d
-        self.P[3:, 3:] += self.bias_bump**2 * np.eye(3)
+        self.P[3:, 3:] += self.policy.gyro_bias_bump**2 * np.eye(3)
 
     def _reinitialise(self, t: float) -> None:
         self.P = self._P0.copy()
