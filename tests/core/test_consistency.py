@@ -57,3 +57,18 @@ def test_three_sigma_share_of_gaussian_noise():
     e = rng.standard_normal((2, 200000)) * np.array([[2.0], [0.1]])
     share = fraction_inside(e, np.ones_like(e) * np.array([[2.0], [0.1]]))
     assert np.allclose(share, 0.9973, atol=0.001)
+
+
+def test_run_averaged_nees_leaves_out_each_run_from_its_divergence():
+    from postcapture.core.consistency import run_averaged_nees
+
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    nees = np.array([[1.0, 2.0, 3.0, 4.0],
+                     [3.0, 1e30, 1e30, 1e30],   # diverged at t = 1: its absurd values are left out
+                     [5.0, 6.0, 7.0, 8.0]])
+    out = run_averaged_nees(nees, t, [np.nan, 1.0, np.nan])
+    np.testing.assert_allclose(out, [3.0, 4.0, 5.0, 6.0])
+    # every run stopped: NaN, no warning
+    assert np.isnan(run_averaged_nees(nees[1:2], t, [0.0])).all()
+    # the input is not changed
+    assert nees[1, 1] == 1e30

@@ -19,12 +19,14 @@ Navigation*, Wiley, 2001, ch. 5.4.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.stats import chi2
 
 from postcapture.core.errors import DimensionError
 
-__all__ = ["nees", "nis", "rms", "fraction_inside", "chi2_bounds"]
+__all__ = ["nees", "nis", "rms", "fraction_inside", "chi2_bounds", "run_averaged_nees"]
 
 
 def nees(error, P):
@@ -134,3 +136,29 @@ def chi2_bounds(dim: int, n_runs: int = 1, *, alpha: float = 0.05) -> tuple[floa
         raise ValueError(f"`alpha` must lie in (0, 1); found {alpha}")
     lo, hi = chi2.ppf([alpha / 2.0, 1.0 - alpha / 2.0], dim * n_runs) / n_runs
     return float(lo), float(hi)
+
+
+def run_averaged_nees(nees, t, stop_at) -> np.ndarray:
+    """The NEES of many runs averaged over the runs at each instant, every run's samples from its
+    ``stop_at`` on left out (a filter that has diverged: its covariance no longer says anything about its
+    error, and a re-initialised filter's first seconds would swamp the mean).
+
+    Parameters
+    ----------
+    nees : array_like, shape (runs, n)
+    t : array_like, shape (n,)
+    stop_at : array_like, shape (runs,)
+        Time from which each run is left out; NaN keeps the whole run.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        NaN where no run is left.
+    """
+    z = np.array(nees, dtype=float)
+    stop = np.asarray(stop_at, dtype=float)
+    z[np.asarray(t, dtype=float)[None, :] >= np.where(np.isnan(stop), np.inf, stop)[:, None]] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # instants where every run is left out
+        return np.nanmean(z, axis=0)
+

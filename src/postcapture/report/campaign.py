@@ -9,11 +9,11 @@
 from __future__ import annotations
 
 import textwrap
-import warnings
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from postcapture.core.consistency import run_averaged_nees
 from postcapture.report.style import artist_gid, case_style, legend_outside
 
 __all__ = ["campaign_table", "campaign_figures"]
@@ -115,10 +115,10 @@ def campaign_figures(ds, summary: dict) -> dict:
     fig2 = Figure(figsize=(10, 1.0 + 2.2 * n_c), layout="constrained")
     for j, case in enumerate(cases):
         c = summary["cases"][case]
-        with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # instants where every run has diverged
-            m_nees = np.nanmean((ds["mass_error"].values[:, j, :] / ds["mass_sigma"].values[:, j, :]) ** 2, axis=0)
-            a_nees = np.nanmean(ds["attitude_nees"].values[:, j, :], axis=0)
+        stop = ds["diverged_at"].values[:, j]  # a diverged filter's NEES is left out from then on
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m_nees = run_averaged_nees((ds["mass_error"].values[:, j, :] / ds["mass_sigma"].values[:, j, :]) ** 2, t, stop)
+        a_nees = run_averaged_nees(ds["attitude_nees"].values[:, j, :], t, stop)
         for col, (values, band, label) in enumerate(((m_nees, c["nees_band"], "mass NEES (1)"),
                                                      (a_nees, c["attitude_nees_band"], "attitude NEES (3)"))):
             ax = fig2.add_subplot(n_c, 2, 2 * j + col + 1)

@@ -23,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
-import warnings
 import logging
 import time
 from collections.abc import Callable
@@ -38,7 +37,7 @@ from postcapture.studies.robust import with_model_noise
 from postcapture.studies.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
-from postcapture.core.consistency import chi2_bounds
+from postcapture.core.consistency import chi2_bounds, run_averaged_nees
 from postcapture.core.errors import MissingExtraError, Problem, ScenarioError
 from postcapture.io import write_atomic
 from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, target_properties, truth_vector_names
@@ -299,12 +298,13 @@ def summarize(result: CampaignResult) -> dict:
         failed = np.array([np.isfinite(c["diverged_at"]) for c in rows], dtype=bool)
         diverged = int(failed.sum())
         ok = np.isfinite(err) & np.isfinite(sig) & ~failed  # a diverged run counts as a miss, whatever its last value
-        with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # instants where every run has diverged
+        stop = np.array([c["diverged_at"] for c in rows])  # a diverged filter's NEES is left out from then on
+        with np.errstate(invalid="ignore", divide="ignore"):
             mass_nees = np.array([(c["mass_error"] / c["mass_sigma"]) ** 2 for c in rows])
-            att_nees = np.array([c["attitude_nees"] for c in rows])
-            avg_m = np.nanmean(mass_nees[:, 1:], axis=0) if n else np.array([np.nan])
-            avg_a = np.nanmean(att_nees[:, 1:], axis=0) if n else np.array([np.nan])
+        att_nees = np.array([c["attitude_nees"] for c in rows])
+        t_grid = np.asarray(result.t, dtype=float)
+        avg_m = run_averaged_nees(mass_nees, t_grid, stop)[1:] if n else np.array([np.nan])
+        avg_a = run_averaged_nees(att_nees, t_grid, stop)[1:] if n else np.array([np.nan])
         com = np.array([c["com_error"] for c in rows])
         inertia = np.array([c["inertia_error"] for c in rows])
         has_target = np.isfinite(com).all(axis=1) & ~failed
