@@ -409,7 +409,11 @@ def _dask_client(scheduler: str | None, workers: int):
             client.close()
             if cluster is not None:
                 cluster.close()
-    finally:
+    except BaseException:
+        # interrupted or failed: the cluster's nannies may still be closing (their INFO lines would follow
+        # the one-line message the user is given), so the distributed logger stays quiet
+        raise
+    else:
         quiet.setLevel(level)
 
 
