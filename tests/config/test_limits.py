@@ -81,7 +81,8 @@ def test_cpu_estimate_has_the_right_order(envisat):
         (dict(duration=300.0, step=1e-9, sample_period=1e-9), "memory", MEMORY_VARIABLE),
         (dict(duration=300.0, step=1e-9), "time", CPU_VARIABLE),  # 3e11 implicit steps
         (dict(duration=300.0, panel_segments=1000), "memory", MEMORY_VARIABLE),  # a 2015-DoF model: ~500 GB
-        (dict(duration=30000.0, panel_segments=60), "time", CPU_VARIABLE),  # 135 DoF, 3e5 dense Newton steps
+        # 135 DoF, 3e7 implicit steps of about 0.3 ms each (a few samples: time, not memory)
+        (dict(duration=3e6, sample_period=1000.0, panel_segments=60), "time", CPU_VARIABLE),
     ],
 )
 def test_absurd_runs_are_refused_before_allocating(envisat, kwargs, limit, variable, monkeypatch):
@@ -95,7 +96,7 @@ def test_absurd_runs_are_refused_before_allocating(envisat, kwargs, limit, varia
 
 
 def test_the_limit_names_its_source_and_can_be_raised():
-    est = estimate_simulation(nv=25, duration=3e5, step=0.1, sample_period=0.1)  # ~1.7 h CPU, 7 MB
+    est = estimate_simulation(nv=25, duration=1e7, step=0.1, sample_period=100.0)  # ~1.7 h CPU, 16 MB
     check_resources(est, Limits.from_environment({}))
     with pytest.raises(ResourceLimitError, match=rf"the limit is 1 h \({CPU_VARIABLE}=1\)"):
         check_resources(est, Limits.from_environment({CPU_VARIABLE: "1"}))

@@ -178,11 +178,14 @@ class ProgressDisplay:
             fraction = min(max(float(fraction), task.fraction), 1.0)
             if int(1000 * fraction) == int(1000 * task.fraction) and fraction < 1.0 and task.fraction > 0.0:
                 return  # the truth loop reports every sample: pass on per-mille changes only
+            new_decile = int(10 * fraction) > int(10 * task.fraction)
             task.fraction = fraction
             if task.bar is not None:
                 task.bar.n = int(round(1000 * fraction))
                 now = time.perf_counter()
-                if now - task.drawn >= _REDRAW_S:
+                # at most every _REDRAW_S, but every tenth is drawn: a task faster than the redraw
+                # interval still shows that it advanced, whatever the machine's speed
+                if now - task.drawn >= _REDRAW_S or (new_decile and fraction < 1.0):
                     task.drawn = now
                     task.bar.refresh()
             if self.verbose and fraction < 1.0 and int(10 * fraction) > task.logged_decile:

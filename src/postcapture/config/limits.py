@@ -50,7 +50,8 @@ CPU_VARIABLE = "POSTCAPTURE_MAX_CPU_HOURS"
 _DEFAULT_CPU_HOURS = 24.0
 _OUTPUT_ROWS = 75  # recorded outputs per sample (accelerations, momenta, energies, panel tips, ...)
 _CASE_ROWS = 70  # float64 histories a filter case keeps per filter instant (attitude, P, mass, NIS, ...)
-_FILTER_FACTOR = 6.0  # CPU of one filter instant (prediction with exact Jacobians, updates) in truth steps
+_FILTER_FACTOR = 50.0  # CPU of one filter instant (prediction with exact Jacobians, dense covariance
+# products and updates in Python: about 2.7 ms at 25 DoF) in implicit truth steps
 _UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 
 
@@ -160,9 +161,11 @@ def _samples(duration: float, period: float) -> float:
 
 
 def _step_cpu(nv: int, integrator: str) -> float:
+    # the compiled core's recursions are O(nv) per stage (BENCHMARKS.md: 40-60 us per implicit step at
+    # 25 DoF, 0.25 ms at 115, 0.9 ms at 415); an explicit step has fewer stages and no Newton iteration
     if integrator == "rk4":
-        return 6e-4 + 8e-7 * nv**2
-    return 1e-3 + 1.5e-8 * nv**3
+        return 5e-6 + 4e-7 * nv
+    return 1e-5 + 2e-6 * nv
 
 
 def _model_bytes(nv: int) -> float:
