@@ -126,6 +126,7 @@ def test_excitation_on_missing_joint(envisat_dict):
 
 def test_sample_period_multiple_of_step(envisat_dict):
     envisat_dict["simulation"]["sample_period"] = 0.07
+    envisat_dict["simulation"]["step"] = 0.05  # an explicit truth step must divide the sample period
     with pytest.raises(ScenarioError, match=r"simulation: expected sample_period a whole multiple of step"):
         scenario_from_dict(envisat_dict)
 

@@ -185,7 +185,7 @@ def default_simulate_out(scenario, variant: str) -> str:
 
 def simulate(args) -> None:
     """``postcapture simulate``: scenario, options, output file, resources."""
-    from postcapture.config.limits import degrees_of_freedom, estimate_simulation
+    from postcapture.config.limits import degrees_of_freedom, estimate_simulation, truth_step_guess
 
     check = Pass("simulate")
     scenario = check.scenario(args.scenario)
@@ -197,7 +197,9 @@ def simulate(args) -> None:
     check.finish()
     sim = effective.simulation
     check.resources(estimate_simulation(nv=degrees_of_freedom(effective, args.variant), duration=sim.duration,
-                                        step=sim.step, sample_period=sim.sample_period, integrator=sim.integrator))
+                                        step=sim.step or truth_step_guess(sim.sample_period),
+                                        sample_period=sim.sample_period,
+                                        integrator=sim.integrator))
 
 
 def truth(args, scenario):

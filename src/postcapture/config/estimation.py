@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+import numpy as np
 from pydantic import Field, model_validator
 
 from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, Seed, Vec3, problem
@@ -132,11 +133,23 @@ class Estimation(Frozen):
     """Settings of the main job's estimators.
 
     ``initial_mass_error`` (kg) is added to the nominal target mass to start every mass estimate (the
-    filters' model is the nominal one, whatever the truth).
+    filters' model is the nominal one, whatever the truth). ``filter_step`` (s) is the filters' cycle
+    (one prediction and the updates of the samples taken at its end); the process model integrates each
+    cycle with ``integrator`` in steps of ``model_step`` (s, a divisor of ``filter_step``). These are
+    the filters' own settings; the truth's are ``[simulation]``'s.
     """
 
     initial_mass_error: float = -100.0
     filter_step: PositiveFloat = 0.1
+    integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
+    model_step: PositiveFloat = 0.05
     seed: Seed = 0
     sensors: dict[str, SensorProfileSpec] = Field(default_factory=dict)
     tuning: dict[str, FilterTuning] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _model_grid(self):
+        ratio = self.filter_step / self.model_step
+        if not np.isfinite(ratio) or abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise problem(f"filter_step a whole multiple of model_step = {self.model_step}", self.filter_step)
+        return self

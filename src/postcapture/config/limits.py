@@ -41,6 +41,7 @@ __all__ = [
     "degrees_of_freedom",
     "estimate_model",
     "estimate_simulation",
+    "truth_step_guess",
     "estimate_run",
     "check_resources",
 ]
@@ -179,6 +180,13 @@ def estimate_model(nv: int) -> Estimate:
                     hint="use fewer panel segments")
 
 
+def truth_step_guess(sample_period: float) -> float:
+    """The step a truth at its declared accuracy is expected to take, for estimates made before its pilot
+    chooses it (s): an eighth of the sample period, at most 1/80 s (what 1 arcsec takes on the default
+    scenario)."""
+    return min(sample_period, 0.1) / 8.0
+
+
 def estimate_simulation(*, nv: int, duration: float, step: float, sample_period: float,
                         integrator: str = "sdirk3") -> Estimate:
     """Estimate of one truth simulation of ``nv`` degrees of freedom (see the module text).
@@ -212,15 +220,17 @@ def estimate_run(scenario, *, duration: float | None = None, n_cases: int = 5, r
     The truth uses the scenario's simulation settings (``duration`` overrides its duration); every
     case filters over the scenario's filter grid; each of ``workers`` processes builds its own model.
     """
-    sim = scenario.simulation
+    sim, est = scenario.simulation, scenario.estimation
     T = sim.duration if duration is None else float(duration)
     nv = degrees_of_freedom(scenario, variant, panel_segments)
-    truth = estimate_simulation(nv=nv, duration=T, step=sim.step, sample_period=sim.sample_period,
-                                integrator=sim.integrator)
-    instants = _samples(T, scenario.estimation.filter_step)
+    # a truth step chosen from the tolerances is not known before its pilot: truth_step_guess
+    truth = estimate_simulation(nv=nv, duration=T, step=sim.step or truth_step_guess(sim.sample_period),
+                                sample_period=sim.sample_period, integrator=sim.integrator)
+    instants = _samples(T, est.filter_step)
     cases = 8.0 * _CASE_ROWS * instants * n_cases
     memory = truth.memory + cases * (runs + 1) + max(1, workers) * _model_bytes(nv)  # + one model per worker
-    filt = instants * n_cases * _FILTER_FACTOR * _step_cpu(nv, sim.integrator)
+    model_steps = max(1.0, round(est.filter_step / est.model_step))
+    filt = instants * n_cases * _FILTER_FACTOR * model_steps * _step_cpu(nv, est.integrator)
     cpu = runs * (truth.cpu_seconds + filt)
     what = "the main job" if runs == 1 else f"a campaign of {runs} runs"
     return Estimate(

@@ -50,6 +50,7 @@ INTEGRATORS = ("sdirk4", "sdirk3", "sdirk2", "rk4")
 ARCSEC = 4.84813681109536e-06  # rad
 VARIANTS = ("flexible", "stiff", "rigid")
 MAX_SEGMENTS = 1000
+MIN_SAMPLE_PERIOD = 1e-6  # s: shorter output periods are not a physical sensor's
 """Most segments a panel may be cut into (scenario files and :meth:`Panel.with_segments` alike)."""
 Inertia = Annotated[Mat3, check_inertia]
 
@@ -179,27 +180,35 @@ class InitialState(Frozen):
 
 
 class Simulation(Frozen):
-    """Run settings: duration, integrator, its step and the output sample period (s).
+    """The truth simulation: duration, output sample period and the truth's own integrator and accuracy.
 
-    ``tolerance`` and ``joint_tolerance`` (rad) are the accuracy of the truth simulation on the attitude
-    and on the joint angles over the run (1 arcsec is ``4.85e-6``): when ``tolerance`` is set, the truth's
-    step follows from them (:func:`postcapture.dynamics.accuracy.choose_step`, ``truth_integrator``);
-    ``None`` runs the truth at ``integrator`` and ``step``, which are also the filters' model settings.
+    The truth is the physics: by default its step follows from its declared accuracy
+    (:func:`postcapture.dynamics.accuracy.choose_step`), the largest ``sample_period / 2^k`` whose
+    estimated error over the run stays within ``tolerance`` on the attitude (rad; 1 arcsec is
+    ``4.85e-6``), ``rate_tolerance`` on the body rate averaged over each sample period (rad/s: what a
+    rate-integrating gyro reads) and ``joint_tolerance`` on the arm's joint angles (rad: what the
+    encoders read). An explicit ``step`` runs the truth at that step instead (the tolerances are then
+    not used). The filters' process model has settings of its own (``[estimation] integrator`` and
+    ``model_step``): nothing here changes the filters.
     """
 
     duration: PositiveFloat = 100.0
-    integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk3"
-    step: PositiveFloat = 0.1
+    integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
+    step: PositiveFloat | None = None
     sample_period: PositiveFloat = 0.1
-    tolerance: PositiveFloat | None = None
-    joint_tolerance: PositiveFloat | None = 1.0e-4
-    truth_integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
+    tolerance: PositiveFloat = 4.85e-6
+    rate_tolerance: PositiveFloat = 5.0e-7
+    joint_tolerance: PositiveFloat = 1.0e-6
 
     @model_validator(mode="after")
     def _grid(self):
-        ratio = self.sample_period / self.step
-        if not np.isfinite(ratio) or abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-            raise problem(f"sample_period a whole multiple of step = {self.step}", self.sample_period)
+        if not MIN_SAMPLE_PERIOD <= self.sample_period <= self.duration:
+            raise problem(f"sample_period between {MIN_SAMPLE_PERIOD:g} s and the duration ({self.duration:g} s)",
+                          self.sample_period)
+        if self.step is not None:
+            ratio = self.sample_period / self.step
+            if not np.isfinite(ratio) or abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+                raise problem(f"sample_period a whole multiple of step = {self.step}", self.sample_period)
         return self
 
 

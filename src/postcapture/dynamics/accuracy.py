@@ -31,6 +31,7 @@ __all__ = ["choose_step", "newton_for", "PILOT_S"]
 logger = logging.getLogger(__name__)
 
 PILOT_S = 30.0
+MAX_FIRST_STEP = 0.1  # s
 
 
 def newton_for(tolerance: float) -> tuple[float, float]:
@@ -48,6 +49,13 @@ def _run(system: System, q0, v0, method: str, h: float, sample_period: float, du
     return plant.simulate(q0, v0, 0.0, h, per, n, sample_period=sample_period)["q"]
 
 
+def _mean_rates(q_BN: np.ndarray, period: float) -> np.ndarray:
+    """Body rates averaged over each sample interval, ``box_minus(q_k+1, q_k) / period`` (3, n - 1)."""
+    from postcapture.core.rotations import box_minus
+
+    return box_minus(q_BN[:, 1:], q_BN[:, :-1]) / period
+
+
 def choose_step(
     system: System,
     q0,
@@ -57,6 +65,7 @@ def choose_step(
     sample_period: float,
     tolerance: float,
     joint_tolerance: float | None = None,
+    rate_tolerance: float | None = None,
     method: str = "sdirk4",
     pilot: float = PILOT_S,
     max_halvings: int = 8,
@@ -74,6 +83,9 @@ def choose_step(
         Largest error of the attitude over the run (rad).
     joint_tolerance : float, optional
         Largest error of every joint angle over the run (rad); None: not controlled.
+    rate_tolerance : float, optional
+        Largest error of the body rate averaged over each sample period, ``box_minus(q_k+1, q_k) / T``
+        (rad/s: what a rate-integrating gyro reads), over the run; None: not controlled.
     method : str
         Integrator (its order enters Richardson's formula).
     max_halvings : int
@@ -93,18 +105,23 @@ def choose_step(
     window = max(sample_period, round(window / sample_period) * sample_period)
     off = system.nq - system.nv
     newton = newton_for(tolerance)
-    coarse = _run(system, q0, v0, method, sample_period, sample_period, window, newton)
     h = sample_period
+    while h > MAX_FIRST_STEP:  # the first trial step: no larger than an implicit step stays well-posed
+        h /= 2
+    coarse = _run(system, q0, v0, method, h, sample_period, window, newton)
     for _ in range(max_halvings):
         h /= 2
         fine = _run(system, q0, v0, method, h, sample_period, window, newton)
-        att = rotation_angle(quat_from_pinocchio(coarse[:, 3:7].T), quat_from_pinocchio(fine[:, 3:7].T)).max()
+        q_c, q_f = quat_from_pinocchio(coarse[:, 3:7].T), quat_from_pinocchio(fine[:, 3:7].T)
+        att = rotation_angle(q_c, q_f).max()
         joints = np.abs(coarse[:, off + system.n_root_v:] - fine[:, off + system.n_root_v:]).max(initial=0.0)
+        rates = np.abs(_mean_rates(q_c, sample_period) - _mean_rates(q_f, sample_period)).max(initial=0.0)
         scale = max(1.0, duration / window) / (2**p - 1)
-        err_att, err_joint = att * scale, joints * scale
-        logger.info("accuracy: %s h = %.6g s, estimated errors over %.0f s: attitude %.3g rad, joints %.3g rad",
-                    method, h, duration, err_att, err_joint)
-        if err_att <= tolerance and (joint_tolerance is None or err_joint <= joint_tolerance):
+        err_att, err_joint, err_rate = att * scale, joints * scale, rates * scale
+        logger.info("accuracy: %s h = %.6g s, estimated errors over %.0f s: attitude %.3g rad, joints %.3g rad, "
+                    "mean rates %.3g rad/s", method, h, duration, err_att, err_joint, err_rate)
+        if (err_att <= tolerance and (joint_tolerance is None or err_joint <= joint_tolerance)
+                and (rate_tolerance is None or err_rate <= rate_tolerance)):
             return h
         coarse = fine
     return h

@@ -17,7 +17,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from postcapture.config.limits import check_resources, estimate_simulation
+from postcapture.config.limits import check_resources, estimate_simulation, truth_step_guess
 from postcapture.config.schema import Scenario
 from postcapture.dynamics.accuracy import choose_step, newton_for
 from postcapture.dynamics.build import build_system, initial_state
@@ -157,7 +157,7 @@ def simulate(
 
     Settings default to the scenario's ``[simulation]`` section; ``parameters`` overrides named model
     parameters (:mod:`postcapture.dynamics.parameters`, e.g. a truth drawn from the priors). Without an
-    explicit ``step`` or ``integrator``, the scenario's ``tolerance`` sets the truth's step
+    explicit ``step`` (here or in ``[simulation]``), the scenario's declared accuracy sets the truth's step
     (:func:`postcapture.dynamics.accuracy.choose_step`).
 
     Examples
@@ -174,10 +174,14 @@ def simulate(
     duration = sim.duration if duration is None else duration
     sample_period = sim.sample_period if sample_period is None else sample_period
     newton = None
-    if step is None and integrator is None and sim.tolerance is not None:
-        integrator, newton = sim.truth_integrator, newton_for(sim.tolerance)
+    integrator = sim.integrator if integrator is None else integrator
+    chosen = step is None and sim.step is None
+    if chosen:  # the truth's step from its declared accuracy, after a check that the run is not absurd
+        check_resources(estimate_simulation(nv=system.nv, duration=duration, step=truth_step_guess(sample_period),
+                                            sample_period=sample_period, integrator=integrator))
+        newton = newton_for(sim.tolerance)
         step = choose_step(system, q0, v0, duration=duration, sample_period=sample_period, tolerance=sim.tolerance,
-                           joint_tolerance=sim.joint_tolerance, method=integrator)
+                           joint_tolerance=sim.joint_tolerance, rate_tolerance=sim.rate_tolerance, method=integrator)
     traj = simulate_system(
         system,
         q0,
@@ -185,11 +189,11 @@ def simulate(
         duration,
         step=sim.step if step is None else step,
         sample_period=sample_period,
-        integrator=sim.integrator if integrator is None else integrator,
+        integrator=integrator,
         progress=progress,
         newton=newton,
     )
-    traj.attrs["tolerance_rad"] = sim.tolerance if sim.tolerance is not None else 0.0
+    traj.attrs["tolerance_rad"] = sim.tolerance if chosen else 0.0
     traj.attrs.update(
         scenario=scenario.name,
         variant=variant,

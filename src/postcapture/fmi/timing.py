@@ -61,7 +61,7 @@ def hot_call_timing(
     from postcapture.fmi.slave import Buffer
 
     system = build_system(scenario, variant, panel_segments=panel_segments)
-    native = NativeProcessModel(system, scenario.simulation.step, scenario.simulation.integrator)
+    native = NativeProcessModel(system, scenario.estimation.model_step, scenario.estimation.integrator)
     out: dict = {}
     with FMUProcessModel(fmu_path) as model:
         x = model.initial_state()

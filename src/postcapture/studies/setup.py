@@ -89,11 +89,9 @@ def plan_run(
         problems.append(Problem("cases", "with an FMU plant, the reference's dual schemes only: the recommended "
                                          "schemes need the native model's parameter Jacobians", ", ".join(recommended)))
     est, sim = scenario.estimation, scenario.simulation
-    ratio = est.filter_step / sim.step
-    if abs(sim.sample_period - est.filter_step) > 1e-12 or abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-        problems.append(Problem("estimation.filter_step", "equal to simulation.sample_period and a whole multiple of "
-                                "simulation.step (the filters' model step)",
-                                f"{est.filter_step} (step {sim.step}, samples {sim.sample_period})"))
+    if abs(sim.sample_period - est.filter_step) > 1e-12:
+        problems.append(Problem("estimation.filter_step", "equal to simulation.sample_period (the sensors sample "
+                                "the truth at the filters' cycle)", f"{est.filter_step} (samples {sim.sample_period})"))
     T = float(sim.duration if duration is None else duration)
     if not T >= MIN_FILTER_STEPS * est.filter_step:
         problems.append(Problem("duration", f"at least {MIN_FILTER_STEPS} filter steps "
@@ -113,9 +111,12 @@ def plan_run(
                                      f"{dm0:g} kg, i.e. {m0:g} kg")])
     filter_profile = resolve_profile(scenario, profile)
     truth_profile = filter_profile
-    if truth.gyro_bias_B is not None:
-        truth_profile = dataclasses.replace(
-            truth_profile, gyro=dataclasses.replace(truth_profile.gyro, initial_bias_B=np.asarray(truth.gyro_bias_B)))
+    gyro_changes = {key: np.asarray(value) for key, value in (("initial_bias_B", truth.gyro_bias_B),
+                                                               ("scale_factor", truth.gyro_scale_factor),
+                                                               ("misalignment", truth.gyro_misalignment))
+                    if value is not None}
+    if gyro_changes:
+        truth_profile = dataclasses.replace(truth_profile, gyro=dataclasses.replace(truth_profile.gyro, **gyro_changes))
     if truth.accel_bias_B is not None:
         truth_profile = dataclasses.replace(
             truth_profile,

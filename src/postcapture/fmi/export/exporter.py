@@ -164,10 +164,10 @@ def export_fmu(
     t_start = time.perf_counter()
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
-    integrator = integrator or scenario.simulation.integrator
+    integrator = integrator or scenario.estimation.integrator
     if integrator not in TABLEAUX:
         raise ValueError(f"integrator: expected one of {sorted(TABLEAUX)}, found {integrator!r}")
-    step = float(step if step is not None else scenario.simulation.step)
+    step = float(step if step is not None else scenario.estimation.model_step)
     if not step > 0:
         raise ValueError(f"step: expected a positive number of seconds, found {step}")
     out_path = check_output_file(out_path)
