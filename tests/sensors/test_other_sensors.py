@@ -1,4 +1,4 @@
-"""Accelerometer, joint sensors, the Measurements record and the named profiles."""
+"""Accelerometer, joint encoders, the Measurements record and the named profiles."""
 
 import dataclasses
 
@@ -13,7 +13,7 @@ from postcapture.sensors import (
     Measurements,
     get_profile,
     measure_accelerometer,
-    measure_joint_accelerations,
+    measure_joint_angles,
 )
 
 
@@ -32,16 +32,40 @@ def test_accelerometer_noise_bias_and_bias_walk():
     assert np.allclose(const.values - f, np.array([[1.0], [2.0], [3.0]]))
 
 
-def test_joint_accelerations_noise_and_shape_check():
+def test_accelerometer_scale_factor_and_misalignment():
+    """Noise-free readings are ``(I + diag(s) + M) f + b``, axis by axis (a closed form)."""
+    t = np.arange(11) * 0.1
+    f = np.vstack([np.full(11, 0.01), np.full(11, -0.02), np.full(11, 0.005)])
+    M = np.array([[0.0, 1e-3, -2e-3], [3e-3, 0.0, 4e-4], [-1e-3, 5e-4, 0.0]])
+    p = AccelerometerParams(sigma=0.0, bias_B=[1e-4, 0.0, 0.0], scale_factor=[1e-3, -2e-3, 5e-4], misalignment=M)
+    m = measure_accelerometer(p, t, f, rng=np.random.default_rng(0))
+    x, y, z = 0.01, -0.02, 0.005
+    expected = [x * (1 + 1e-3) + 1e-3 * y - 2e-3 * z + 1e-4, 3e-3 * x + y * (1 - 2e-3) + 4e-4 * z,
+                -1e-3 * x + 5e-4 * y + z * (1 + 5e-4)]
+    assert np.allclose(m.values[:, 3], expected, rtol=0, atol=1e-15)
+    with pytest.raises(ScenarioError, match="misalignment"):
+        AccelerometerParams(sigma=0.0, misalignment=np.eye(3) * 1e-3)  # the diagonal is the scale factor's
+
+
+def test_encoders_quantise_and_check_their_shape():
     t = np.arange(2001) * 0.005
-    qdd = np.outer(np.arange(1, 8), np.sin(t))
-    p = JointSensorParams(sigma=0.1, rate=10.0)
-    m = measure_joint_accelerations(p, t, qdd, rng=np.random.default_rng(52))
-    assert m.values.shape == (7, 101) and m.units == ("rad/s^2",) * 7
-    assert np.allclose(m.truth["qdd"], qdd[:, ::20])
-    assert np.std(m.values - m.truth["qdd"]) == pytest.approx(0.1, rel=0.1)
-    with pytest.raises(DimensionError, match=r"qdd` must have shape \(7, n_t\)"):
-        measure_joint_accelerations(JointSensorParams(0.1), t, qdd[:6], rng=np.random.default_rng(0))
+    q = np.outer(np.arange(1, 8), np.sin(t)) * 0.1
+    res = 2 * np.pi / 2**20
+    p = JointSensorParams(sigma=0.0, resolution=res, rate=10.0)
+    m = measure_joint_angles(p, t, q, rng=np.random.default_rng(52))
+    assert m.values.shape == (7, 101) and m.units == ("rad",) * 7
+    assert np.allclose(m.truth["q_arm"], q[:, ::20])
+    counts = m.values / res
+    assert np.allclose(counts, np.round(counts), atol=1e-6)  # whole counts
+    err = m.values - m.truth["q_arm"]
+    assert np.max(np.abs(err)) <= 0.5 * res * (1 + 1e-9)
+    assert np.std(err) == pytest.approx(res / np.sqrt(12.0), rel=0.1)  # uniform quantisation error
+    noisy = JointSensorParams(sigma=1e-5, resolution=res)
+    assert noisy.sample_sigma == pytest.approx(np.sqrt(1e-10 + res**2 / 12))
+    m = measure_joint_angles(noisy, t, q, rng=np.random.default_rng(53))
+    assert np.std(m.values - m.truth["q_arm"]) == pytest.approx(noisy.sample_sigma, rel=0.1)
+    with pytest.raises(DimensionError, match=r"q_arm` must have shape \(7, n_t\)"):
+        measure_joint_angles(JointSensorParams(0.1), t, q[:6], rng=np.random.default_rng(0))
 
 
 def test_measurements_record_checks_shapes():
@@ -54,9 +78,13 @@ def test_measurements_record_checks_shapes():
 def test_profiles():
     ref, real = get_profile("reference"), get_profile("realistic")
     assert np.allclose(ref.star_tracker.covariance(), 0.01**2 * np.eye(3))
-    # navigation grade: 10 micro-g / sqrt(Hz) at 10 Hz; joints 1e-3 rad/s^2 (the reference gives no numbers)
+    # navigation grade: 10 micro-g / sqrt(Hz) at 10 Hz; 20-bit encoders (the reference gives no numbers)
     assert ref.accelerometer.sigma == pytest.approx(10e-6 * 9.80665 * np.sqrt(10.0), rel=1e-9)
-    assert ref.joints.sigma == pytest.approx(1e-3)
+    assert ref.joints.resolution == pytest.approx(2 * np.pi / 2**20) and ref.joints == real.joints
+    assert not np.any(ref.gyro.scale_factor) and not np.any(ref.gyro.misalignment)
+    # Astrix 120: 100 ppm scale factor (datasheet) as the 1-sigma the filters assume; this unit's errors
+    assert real.gyro.scale_factor_sigma == pytest.approx(100e-6)
+    assert 0 < np.max(np.abs(real.gyro.scale_factor)) < 3 * 100e-6
     assert real.star_tracker.sigma_cross == pytest.approx(2 * ARCSEC)
     assert real.star_tracker.sigma_roll == pytest.approx(10 * ARCSEC)
     assert real.gyro.sigma_v == pytest.approx(5.8178e-7, rel=1e-4)  # 0.002 deg/sqrt(h)

@@ -9,7 +9,9 @@ Every entry is a :class:`Prior`, in SI units, of one of two sorts:
 
 - *offsets* added to the nominal value: ``target_mass`` (kg), ``target_com`` (m, each axis of T),
   ``target_inertia_axes`` (rad, a small rotation of the principal axes about each axis of T),
-  ``gyro_bias`` (rad/s, each axis, the turn-on bias), ``accelerometer_bias`` (m/s^2, each axis);
+  ``gyro_bias`` (rad/s, each axis, the turn-on bias), ``accelerometer_bias`` (m/s^2, each axis),
+  ``gyro_scale_factor`` (relative, each axis) and ``gyro_misalignment`` (rad, each of the six
+  off-axis terms): the gyro unit's calibration errors, which the filters then estimate;
 - *factors* multiplying it: ``target_inertia_moments`` (each principal moment), ``panel_bending``,
   ``panel_torsion`` and ``panel_damping`` (each panel drawn on its own), ``arm_stiffness`` and
   ``arm_damping`` (one factor for every joint).
@@ -30,7 +32,8 @@ from postcapture.config.types import Frozen, PositiveFloat, problem
 
 __all__ = ["Prior", "Uncertainty", "OFFSET_PRIORS", "FACTOR_PRIORS"]
 
-OFFSET_PRIORS = ("target_mass", "target_com", "target_inertia_axes", "gyro_bias", "accelerometer_bias")
+OFFSET_PRIORS = ("target_mass", "target_com", "target_inertia_axes", "gyro_bias", "accelerometer_bias",
+                 "gyro_scale_factor", "gyro_misalignment")
 FACTOR_PRIORS = ("target_inertia_moments", "panel_bending", "panel_torsion", "panel_damping", "arm_stiffness",
                  "arm_damping")
 
@@ -120,6 +123,8 @@ class Uncertainty(Frozen):
     arm_damping: Prior | None = None
     gyro_bias: Prior | None = None
     accelerometer_bias: Prior | None = None
+    gyro_scale_factor: Prior | None = None
+    gyro_misalignment: Prior | None = None
     truth_panel_segments: int | None = Field(default=None, ge=1, le=1000)
 
     @model_validator(mode="after")

@@ -21,6 +21,7 @@ import numpy as np
 
 __all__ = [
     "IDENTITY",
+    "exp_matrix",
     "cross3",
     "skew",
     "normalize",
@@ -188,6 +189,19 @@ def quat_rate(q_BN, omega_BN_B):
     omega = np.asarray(omega_BN_B, dtype=float)
     zero = np.zeros((1,) + omega.shape[1:])
     return 0.5 * _hamilton(np.asarray(q_BN, dtype=float), np.concatenate([zero, omega], axis=0))
+
+
+def exp_matrix(phi) -> np.ndarray:
+    """Rotation matrix ``Exp(phi)`` of a rotation vector (Rodrigues): the active rotation by ``phi``.
+
+    With ``phi = box_minus(q1_BN, q0_BN)`` it is ``C_{B0 B1}``: it maps B1 components to B0 components.
+    """
+    phi = np.asarray(phi, dtype=float)
+    th = float(np.sqrt(phi @ phi))
+    W = skew(phi)
+    if th < 1e-6:
+        return np.eye(3) + W + 0.5 * (W @ W)
+    return np.eye(3) + (np.sin(th) / th) * W + ((1.0 - np.cos(th)) / (th * th)) * (W @ W)
 
 
 def right_jacobian_inv(phi) -> np.ndarray:

@@ -45,6 +45,10 @@ class TruthModel:
         Values of named parameters that differ from what ``scenario`` gives.
     gyro_bias_B, accel_bias_B : ndarray, shape (3,), optional
         True turn-on biases (rad/s, m/s^2); None keeps the sensor profile's.
+    gyro_scale_factor : ndarray, shape (3,), optional
+        The gyro's true scale-factor errors (relative); None keeps the profile's.
+    gyro_misalignment : ndarray, shape (3, 3), optional
+        Its true misalignment (rad, zero diagonal); None keeps the profile's.
     source : str
         ``"nominal"``, ``"scenario <path>"`` or ``"draw <seed>"``.
     """
@@ -54,6 +58,8 @@ class TruthModel:
     gyro_bias_B: np.ndarray | None = None
     accel_bias_B: np.ndarray | None = None
     source: str = "nominal"
+    gyro_scale_factor: np.ndarray | None = None
+    gyro_misalignment: np.ndarray | None = None
 
     def build(self, variant: str = "flexible", **kwargs) -> System:
         """The truth plant (``build_system`` of the scenario, then the parameter overrides)."""
@@ -218,7 +224,13 @@ def draw_truth(scenario: Scenario, seed) -> TruthModel:
     params = draw_parameters(scenario, rng)
     gyro = unc.gyro_bias.sample(rng, 3) if unc.gyro_bias else None
     accel = unc.accelerometer_bias.sample(rng, 3) if unc.accelerometer_bias else None
-    return TruthModel(truth_sc, params, gyro, accel, source="draw " + ",".join(str(x) for x in seeds))
+    scale = unc.gyro_scale_factor.sample(rng, 3) if unc.gyro_scale_factor else None
+    mis = None
+    if unc.gyro_misalignment:
+        mis = np.zeros((3, 3))
+        mis[~np.eye(3, dtype=bool)] = unc.gyro_misalignment.sample(rng, 6)
+    return TruthModel(truth_sc, params, gyro, accel, source="draw " + ",".join(str(x) for x in seeds),
+                      gyro_scale_factor=scale, gyro_misalignment=mis)
 
 
 def check_priors(scenario: Scenario, draws: int = 200) -> None:

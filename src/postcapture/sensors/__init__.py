@@ -10,7 +10,7 @@ This package imports only :mod:`postcapture.core`, numpy and scipy.
 
 from postcapture.sensors.accelerometer import AccelerometerParams, measure_accelerometer
 from postcapture.sensors.gyroscope import GyroParams, measure_gyro
-from postcapture.sensors.joints import JointSensorParams, measure_joint_accelerations
+from postcapture.sensors.joints import JointSensorParams, measure_joint_angles
 from postcapture.sensors.profiles import PROFILES, SensorProfile, get_profile, realistic, reference
 from postcapture.sensors.record import Measurements
 from postcapture.sensors.star_tracker import StarTrackerParams, measure_star_tracker
@@ -24,7 +24,7 @@ __all__ = [
     "AccelerometerParams",
     "measure_accelerometer",
     "JointSensorParams",
-    "measure_joint_accelerations",
+    "measure_joint_angles",
     "SensorProfile",
     "PROFILES",
     "get_profile",

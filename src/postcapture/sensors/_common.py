@@ -54,6 +54,20 @@ class Checker:
         v.setflags(write=False)
         object.__setattr__(self.obj, name, v)
 
+    def misalignment(self, name: str) -> None:
+        """A finite 3x3 float array with a zero diagonal (the off-axis sensitivities); stored read-only."""
+        value = self._value(name)
+        try:
+            m = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            self._add(name, "a 3x3 matrix", value)
+            return
+        if m.shape != (3, 3) or not np.all(np.isfinite(m)) or np.any(np.diag(m) != 0.0) or np.any(np.abs(m) >= 0.1):
+            self._add(name, "a finite 3x3 matrix of small angles (|m| < 0.1 rad) with a zero diagonal", value)
+            return
+        m.setflags(write=False)
+        object.__setattr__(self.obj, name, m)
+
     def integer(self, name: str) -> None:
         """A positive integer."""
         value = self._value(name)
@@ -130,3 +144,4 @@ def apply_dropouts(values: np.ndarray, probability: float, rng: np.random.Genera
         values = values.copy()
         values[:, ~valid] = np.nan
     return values, valid
+

@@ -55,8 +55,10 @@ def reference() -> SensorProfile:
       R_theta = diag(1e-4 I3, 1e-2 I7) (0.01 m/s^2, 0.1 rad/s^2) is a tuning: at that noise the mass
       would not be observable at all with this scenario's manoeuvre (Cramer-Rao bound ~300 kg from
       the accelerometer at fixed state). We simulate a navigation-grade accelerometer, 10 micro-g/sqrt(Hz)
-      white noise (3.1e-4 m/s^2 per 10 Hz sample) without bias, and joint accelerations at
-      1e-3 rad/s^2 (the realistic profile's numbers without their biases).
+      velocity random walk (3.1e-4 m/s^2 per 10 Hz mean specific force) without bias, and the
+      realistic profile's joint encoders (the reference read joint accelerations; encoders are what the
+      joints carry, and what a device outputs).
+    * No scale-factor or misalignment errors: the reference's sensors have none.
     * Rates: 10 Hz for every sensor (assumption; the reference does not state them).
     """
     rate = 10.0
@@ -70,8 +72,35 @@ def reference() -> SensorProfile:
             initial_bias_B=np.full(3, 0.1 * DEG_PER_HOUR),
         ),
         accelerometer=AccelerometerParams(sigma=10.0 * MICRO_G * math.sqrt(rate), rate=rate),
-        joints=JointSensorParams(sigma=1e-3, rate=rate, n_joints=7),
+        joints=_encoders(rate),
     )
+
+
+ENCODER_RESOLUTION = 2.0 * math.pi / 2**20
+"""One count of a 20-bit absolute encoder (rad)."""
+ENCODER_NOISE = 5e-6
+"""Read-out noise of a high-end interpolated encoder (rad, about 1 arcsec 1-sigma; assumption)."""
+GYRO_SCALE_FACTOR_SIGMA = 100e-6
+"""Astrix 120 datasheet scale factor (100 ppm), taken as a 1-sigma per axis."""
+GYRO_MISALIGNMENT_SIGMA = 50e-6
+"""Residual misalignment of each gyro axis towards the others after ground alignment (rad; assumption)."""
+ACCEL_SCALE_FACTOR_SIGMA = 100e-6
+"""Navigation-grade accelerometer scale factor, 1-sigma per axis (assumption, Groves 2013 ch. 4 order)."""
+ACCEL_MISALIGNMENT_SIGMA = 100e-6
+"""Accelerometer axis misalignment, 1-sigma (rad; assumption)."""
+
+
+def _encoders(rate: float) -> JointSensorParams:
+    return JointSensorParams(sigma=ENCODER_NOISE, resolution=ENCODER_RESOLUTION, rate=rate, n_joints=7)
+
+
+def _unit_draw(seed: int, sigma_scale: float, sigma_mis: float) -> tuple[np.ndarray, np.ndarray]:
+    """One unit's scale-factor and misalignment errors, a fixed draw from its datasheet's 1-sigma values."""
+    rng = np.random.default_rng(seed)
+    scale = sigma_scale * rng.standard_normal(3)
+    mis = sigma_mis * rng.standard_normal((3, 3))
+    np.fill_diagonal(mis, 0.0)
+    return scale, mis
 
 
 def realistic() -> SensorProfile:
@@ -83,16 +112,20 @@ def realistic() -> SensorProfile:
     * Gyro, Astrix 120 class (Airbus datasheet): angle random walk 0.002 deg/sqrt(h)
       (5.8e-7 rad/sqrt(s)); bias stability 0.01 deg/h, modelled as a random walk that drifts 0.01 deg/h
       (1-sigma) in one hour: sigma_u = 0.01 deg/h / sqrt(3600 s) = 8.1e-10 rad/s^1.5. Initial bias
-      0.05 deg/h per axis with mixed signs (assumption: residual after ground calibration). 10 Hz.
+      0.05 deg/h per axis with mixed signs (assumption: residual after ground calibration). Scale factor
+      100 ppm (datasheet) and misalignment 50 micro-rad (assumption) as 1-sigma values; this unit's errors
+      are one fixed draw from them. 10 Hz angle increments.
     * Accelerometer, navigation grade (assumption, order of magnitude of navigation-grade units in
       Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed.,
-      2013, ch. 4): noise density 10 micro-g/sqrt(Hz), so sigma = 10 micro-g sqrt(10 Hz) = 3.1e-4 m/s^2
-      per 10 Hz sample; bias 30 micro-g per axis; bias random walk 10 micro-g per sqrt(h).
-    * Joint accelerations: 1e-3 rad/s^2 1-sigma per sample at 10 Hz (assumption: high-resolution
-      encoders differentiated twice, with filtering).
+      2013, ch. 4): velocity random walk 10 micro-g/sqrt(Hz), so sigma = 10 micro-g sqrt(10 Hz) =
+      3.1e-4 m/s^2 per 10 Hz mean specific force; bias 30 micro-g per axis; bias random walk 10 micro-g
+      per sqrt(h); scale factor and misalignment 100 ppm and 100 micro-rad (1-sigma; one fixed draw).
+    * Joint encoders: 20-bit absolute (one count 6.0e-6 rad) with 5e-6 rad read-out noise, 10 Hz.
     """
     rate = 10.0
     density = 10.0 * MICRO_G  # (m/s^2)/sqrt(Hz)
+    g_scale, g_mis = _unit_draw(120, GYRO_SCALE_FACTOR_SIGMA, GYRO_MISALIGNMENT_SIGMA)
+    a_scale, a_mis = _unit_draw(10, ACCEL_SCALE_FACTOR_SIGMA, ACCEL_MISALIGNMENT_SIGMA)
     return SensorProfile(
         name="realistic",
         star_tracker=StarTrackerParams(sigma_cross=2.0 * ARCSEC, sigma_roll=10.0 * ARCSEC, rate=rate),
@@ -101,14 +134,20 @@ def realistic() -> SensorProfile:
             sigma_u=0.01 * DEG_PER_HOUR / math.sqrt(HOUR),
             rate=rate,
             initial_bias_B=np.array([0.05, -0.05, 0.05]) * DEG_PER_HOUR,
+            scale_factor=g_scale,
+            misalignment=g_mis,
+            scale_factor_sigma=GYRO_SCALE_FACTOR_SIGMA,
+            misalignment_sigma=GYRO_MISALIGNMENT_SIGMA,
         ),
         accelerometer=AccelerometerParams(
             sigma=density * math.sqrt(rate),
             rate=rate,
             bias_B=np.full(3, 30.0 * MICRO_G),
             sigma_bias_walk=10.0 * MICRO_G / math.sqrt(HOUR),
+            scale_factor=a_scale,
+            misalignment=a_mis,
         ),
-        joints=JointSensorParams(sigma=1e-3, rate=rate, n_joints=7),
+        joints=_encoders(rate),
     )
 
 
