@@ -153,7 +153,8 @@ def test_run_json_and_files(capsys, tmp_path):
     summary = json.loads(stdout)
     for name in ("ekf_flexible", "joint"):
         case = summary["cases"][name]
-        for key in ("mass_error_kg", "mass_sigma_kg", "attitude_rms_arcsec", "inside_3sigma", "nees_mean", "wall_s"):
+        for key in ("mass_error_kg", "mass_sigma_kg", "attitude_rms_arcsec", "attitude_inside_3sigma_fraction", "mass_inside_3sigma",
+                    "nees_mean", "wall_s"):
             assert key in case
     assert summary["wall_s"] > 0
     for f in ("results.nc", "summary.json", "table.txt", "attitude_estimates.png", "mass_estimates.png"):

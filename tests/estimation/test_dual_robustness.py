@@ -34,7 +34,7 @@ def _dual(sc, case, profile, m0):
 
 
 def _model(sc, theta0):
-    m = NativeProcessModel(build_system(sc), sc.simulation.step)
+    m = NativeProcessModel(build_system(sc), sc.estimation.model_step, sc.estimation.integrator)
     x0, S0 = initial_state_and_sensitivity(m, theta0)
     return m, x0, S0
 

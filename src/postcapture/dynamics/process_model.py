@@ -50,7 +50,11 @@ class NativeProcessModel:
         self.n = 2 * self.nv
         self.n_meas = self.plant.nz
         self.tangent_attitude = slice(3, 6)
+        self.tangent_velocity = slice(self.nv, self.nv + 3)
         self.tangent_rate = slice(self.nv + 3, self.nv + 6)
+        self.tangent_arm = np.array(sysm.layout.arm_v, dtype=int)
+        self._arm_q = self.tangent_arm + (self.nq - self.nv)
+        self.accelerometer_position = np.array(sysm.scenario.chaser.accelerometer_position, dtype=float)
         self._panel_mass = sysm.layout.target_panel_mass if sysm.layout.has_target else 0.0
 
     # ------------------------------------------------------------------ parameters
@@ -166,3 +170,11 @@ class NativeProcessModel:
 
     def body_rate(self, x) -> np.ndarray:
         return np.asarray(x[self.nq + 3 : self.nq + 6], dtype=float)
+
+    def chaser_velocity(self, x) -> np.ndarray:
+        """Velocity of B's origin (the chaser's centre of mass), body components (m/s)."""
+        return np.asarray(x[self.nq : self.nq + 3], dtype=float)
+
+    def arm_angles(self, x) -> np.ndarray:
+        """The arm's link-side joint angles (rad), what its encoders read."""
+        return np.asarray(x[self._arm_q], dtype=float)

@@ -2,24 +2,28 @@ r"""The model-based augmented EKF: plant state, sensor biases and plant paramete
 
 Error state (named by :attr:`AugmentedEKF.labels`)::
 
-    [ dx (n: the plant's tangent) | db_gyro (3) | db_accel (3) | d eta (estimated) |
-      d eta (considered) | d theta_clone (3) ]
+    [ dx (n: the plant's tangent) | db_gyro (3) | db_accel (3) | d gyro calibration (0 or 9) |
+      d eta (estimated) | d eta (considered) | clone (9) ]
 
 ``eta`` are the filter's coordinates of the plant's parameters (:class:`~postcapture.estimation.
 parameters.ParameterMap`: log-Cholesky for the target's inertial parameters, logarithms of factors).
 Estimated coordinates are updated by the measurements; *considered* ones (Schmidt-Kalman) keep their
 nominal value, but their covariance and their cross-covariance with everything else are carried, so the
-filter's uncertainty covers what they do to the predictions.
+filter's uncertainty covers what they do to the predictions. The gyro calibration (when the tuning gives
+it a prior) is the three scale-factor errors and the six misalignments of the gyro triad (row-major
+off-diagonal terms of ``M``; the gyro reads ``(I + diag(s) + M) omega``).
 
 Prediction: the plant copy advances with the current parameters and its exact step Jacobians,
-``Phi = [[F, G dp/deta], [0, I]]``; the biases are random walks; the plant's velocities get the model
-error process noise ``model_noise`` per step. Before the step, the attitude error is *cloned* (stochastic
-cloning) so that the gyro's delta-angle over the step, ``box_minus(q_k+1, q_k) / dt + b``, is an ordinary
-measurement of the clone and the current attitude (``H = [Jr^-1 / dt on the attitude, -Jl^-1 / dt on the
-clone, I on the bias]``, the exact first-order derivative of the box-minus).
+``Phi = [[F, G dp/deta], [0, I]]``; the biases are random walks; the plant's coordinates get the model
+error process noise ``model_noise`` per step. Before the step, the chaser's attitude, linear velocity
+and body rate (their errors and values) are *cloned* (stochastic cloning), so that the inertial sensors'
+increments over the step (:mod:`postcapture.estimation.increments`: the mean rate and the mean specific
+force, both exact functions of the clone and the predicted state) are ordinary measurements with exact
+Jacobians.
 
-Measurements: the star tracker (``H = I`` on the attitude), the gyro, and the accelerations
-``[accelerometer (3, reads its bias), arm joint accelerations]`` with ``H = [H_x, I_bias, Hp dp/deta]``.
+Measurements: the star tracker (``H = I`` on the attitude), the gyro's mean rate (reads its bias and
+calibration), the accelerometer's mean specific force at its position in B (reads its bias) and the arm's
+encoders (``H = I`` on the joint angles).
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ from postcapture.core import kalman
 from postcapture.core import rotations as rot
 from postcapture.core.errors import CovarianceError, DomainError, SimulationError
 from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy
+from postcapture.core.triad import CALIBRATION_LABELS, calibration_matrix, calibration_sensitivity
+from postcapture.estimation.increments import mean_rate, mean_specific_force
 from postcapture.estimation.parameters import ParameterMap
 
 __all__ = ["AugmentedTuning", "AugmentedEKF"]
@@ -57,6 +63,9 @@ class AugmentedTuning:
         Process noise added per step to the plant: one variance for every velocity coordinate, one per
         velocity coordinate ((rad/s)^2 or (m/s)^2), or a full covariance over the plant's tangent: the
         model error the parameters do not describe.
+    P0_gyro_scale, P0_gyro_misalignment : float
+        Prior variances of the gyro's scale-factor errors (relative) and misalignments (rad^2); both 0
+        (the default): the filter carries no calibration states.
     gate_probability : float or None
     recovery : RecoveryPolicy
     """
@@ -69,8 +78,16 @@ class AugmentedTuning:
     P0_accel_bias: float
     P0_state: float = 1e-16
     model_noise: float | np.ndarray = 0.0
+    P0_gyro_scale: float = 0.0
+    P0_gyro_misalignment: float = 0.0
     gate_probability: float | None = 0.9999
     recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
+
+    @property
+    def gyro_calibration(self) -> bool:
+        """Whether the filter carries the gyro's scale factors and misalignments."""
+        return self.P0_gyro_scale > 0.0 or self.P0_gyro_misalignment > 0.0
+
 
 
 class AugmentedEKF(FilterBase):
@@ -108,24 +125,37 @@ class AugmentedEKF(FilterBase):
         self.n = n
         self.att = model.tangent_attitude
         k = params.size
+        ncal = 9 if tuning.gyro_calibration else 0
         self.i_bg = slice(n, n + 3)
         self.i_ba = slice(n + 3, n + 6)
-        self.i_eta = slice(n + 6, n + 6 + k)
-        self.i_est = slice(n + 6, n + 6 + k - n_consider)
-        self.i_con = slice(n + 6 + k - n_consider, n + 6 + k)
-        self.i_clone = slice(n + 6 + k, n + 9 + k)
+        self.i_cal = slice(n + 6, n + 6 + ncal)
+        e0 = n + 6 + ncal
+        self.i_eta = slice(e0, e0 + k)
+        self.i_est = slice(e0, e0 + k - n_consider)
+        self.i_con = slice(e0 + k - n_consider, e0 + k)
+        self.i_clone = slice(e0 + k, e0 + k + 9)
         N = self.i_clone.stop
         self.N = N
+        # the cloned plant coordinates: attitude, linear velocity and body rate of the chaser
+        self._cloned = np.r_[np.arange(self.att.start, self.att.stop),
+                             np.arange(model.tangent_velocity.start, model.tangent_velocity.stop),
+                             np.arange(model.tangent_rate.start, model.tangent_rate.stop)]
+        self.i_arm = np.asarray(model.tangent_arm, dtype=int)
+        self.r_accel = np.asarray(model.accelerometer_position, dtype=float)
         labels = [f"plant[{i}]" for i in range(n)]
         for i, axis in zip(range(self.att.start, self.att.stop), "xyz"):
             labels[i] = f"dtheta_{axis}"
         labels += [f"gyro_bias_{a}" for a in "xyz"] + [f"accel_bias_{a}" for a in "xyz"]
-        labels += list(params.labels) + [f"clone_{a}" for a in "xyz"]
+        if ncal:
+            labels += [f"gyro_{label}" for label in CALIBRATION_LABELS]
+        labels += list(params.labels)
+        labels += [f"clone_{q}_{a}" for q in ("dtheta", "v", "omega") for a in "xyz"]
         self.labels = tuple(labels)
         self.eta = np.array(eta0, dtype=float)
         self._eta_init = self.eta.copy()
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
+        self.gyro_cal = np.zeros(ncal)
         x = np.array(x0, dtype=float)
         if q0_BN is not None:
             d = np.zeros(n)
@@ -140,6 +170,8 @@ class AugmentedEKF(FilterBase):
         P[self.att, self.att] = tuning.P0_attitude
         P[self.i_bg, self.i_bg] = tuning.P0_gyro_bias * np.eye(3)
         P[self.i_ba, self.i_ba] = tuning.P0_accel_bias * np.eye(3)
+        if ncal:
+            P[self.i_cal, self.i_cal] = np.diag([tuning.P0_gyro_scale] * 3 + [tuning.P0_gyro_misalignment] * 6)
         P[self.i_eta, self.i_eta] = P_eta
         Sx = S0 @ params.jacobian(self.eta)  # d x0 / d eta
         P[:n, :n] += Sx @ P_eta @ Sx.T
@@ -147,9 +179,7 @@ class AugmentedEKF(FilterBase):
         P[self.i_eta, :n] = P[:n, self.i_eta].T
         self.P = kalman.symmetrize(P)
         self._P_init = self.P.copy()
-        self._q_clone = model.attitude(self.x)
-        self._pred = None
-        self._p_pred = None
+        self._clone = self._clone_values(self.x)
         self._dt = None
         nv = n // 2
         Q = np.zeros((N, N))
@@ -161,22 +191,25 @@ class AugmentedEKF(FilterBase):
         self._Q_rate = Q
         self.t = 0.0
 
+    def _clone_values(self, x):
+        m = self.model
+        return m.attitude(x), m.chaser_velocity(x), m.body_rate(x)
+
     # ------------------------------------------------------------------ the stepper
     def predict(self, t: float, dt: float, u=None) -> None:
         """Advance from ``t`` to ``t + dt`` (the known inputs are the model's own schedule; ``u`` is unused)."""
-        model, tun = self.model, self.tuning
+        tun = self.tuning
         try:
-            J_eta, p, pred = self._step(t, dt)
+            J_eta, pred = self._step(t, dt)
         except (SimulationError, DomainError) as exc:  # the plant copy cannot take this step with these values
             self.diverge(t, f"the plant copy failed: {exc}")
-            J_eta, p, pred = self._step(t, dt)
-        # clone the attitude at t (value and error) before the step
-        self._q_clone = model.attitude(self.x)
+            J_eta, pred = self._step(t, dt)
+        # clone the chaser's attitude, velocity and rate at t (values and errors) before the step
+        self._clone = self._clone_values(self.x)
         P = self.P
-        c, a = self.i_clone, self.att
+        c, a = self.i_clone, self._cloned
         P[c, :] = P[a, :]
         P[:, c] = P[:, a]
-        P[c, c] = P[a, a]
         n = self.n
         Phi_x = pred.F
         Phi_eta = pred.G @ J_eta
@@ -190,58 +223,82 @@ class AugmentedEKF(FilterBase):
         Q[self.i_ba, self.i_ba] = tun.sigma_accel_bias_walk**2 * dt * np.eye(3)
         self.P = kalman.symmetrize(P + Q)
         self.x = pred.x
-        self._pred, self._p_pred, self._J_eta, self._dt = pred, p, J_eta, dt
+        self._dt = dt
         self.t = t + dt
         self.check_covariance(self.t, "prediction")
 
     def _step(self, t, dt):
         J_eta = self.params.jacobian(self.eta)
-        p = self.params.to_model(self.eta)
-        self.model.set_params(p)
-        return J_eta, p, self.model.predict(self.x, t, dt, jacobians=True)
+        self.model.set_params(self.params.to_model(self.eta))
+        return J_eta, self.model.predict(self.x, t, dt, jacobians=True)
+
+    def _gyro_model(self):
+        """The predicted gyro mean rate and its Jacobian (m = 3)."""
+        m, N, dt = self.model, self.N, self._dt
+        w_bar, H1, H0, _ = mean_rate(self._clone[0], m.attitude(self.x), dt)
+        C = np.eye(3)
+        H = np.zeros((3, N))
+        if self.gyro_cal.size:
+            C = calibration_matrix(self.gyro_cal)
+            H[:, self.i_cal] = calibration_sensitivity(w_bar)
+        H[:, self.att] = C @ H1
+        H[:, self.i_clone.start:self.i_clone.start + 3] = C @ H0
+        H[:, self.i_bg] = np.eye(3)
+        return C @ w_bar + self.gyro_bias, H
+
+    def _accelerometer_model(self):
+        """The predicted mean specific force at the accelerometer and its Jacobian (m = 3)."""
+        m, N = self.model, self.N
+        q0, v0, w0 = self._clone
+        x = self.x
+        phi = rot.box_minus(m.attitude(x), q0)
+        f, J = mean_specific_force(phi, v0, w0, m.chaser_velocity(x), m.body_rate(x), self.r_accel, self._dt)
+        H = np.zeros((3, N))
+        H[:, self.att] = J["att1"]
+        H[:, m.tangent_velocity] = J["v1"]
+        H[:, m.tangent_rate] = J["w1"]
+        c = self.i_clone.start
+        H[:, c:c + 3] = J["att0"]
+        H[:, c + 3:c + 6] = J["v0"]
+        H[:, c + 6:c + 9] = J["w0"]
+        H[:, self.i_ba] = np.eye(3)
+        return f + self.accel_bias, H
 
     def update(self, z: Measurement):
-        """Correct with a star-tracker, gyro or accelerations measurement; returns the update result or None."""
+        """Correct with a star-tracker, gyro, accelerometer or encoder measurement; returns the update result or None.
+
+        NaN entries of an accelerometer or encoder sample are missing and left out; a star-tracker or gyro
+        sample with any NaN is missing.
+        """
         value = np.asarray(z.value, dtype=float)
-        N, n = self.N, self.n
+        N = self.N
+        ok = np.isfinite(value)
         if z.kind == "star_tracker":
-            if not np.all(np.isfinite(value)):
+            if not ok.all():
                 self.counts["measurements_missing"] += 1
                 return None
             nu = rot.box_minus(value, self.model.attitude(self.x))
             H = np.zeros((3, N))
             H[:, self.att] = np.eye(3)
             R = z.R
-        elif z.kind == "gyro":
-            if not np.all(np.isfinite(value)):
+        elif z.kind in ("gyro", "accelerometer", "encoders"):
+            if (z.kind == "gyro" and not ok.all()) or not ok.any():
                 self.counts["measurements_missing"] += 1
                 return None
-            dt = self._dt
-            phi = rot.box_minus(self.model.attitude(self.x), self._q_clone)
-            nu = value - phi / dt - self.gyro_bias
-            H = np.zeros((3, N))
-            H[:, self.att] = rot.right_jacobian_inv(phi) / dt
-            H[:, self.i_clone] = -rot.left_jacobian_inv(phi) / dt
-            H[:, self.i_bg] = np.eye(3)
-            R = z.R
-        elif z.kind == "accelerations":
-            ok = np.isfinite(value)
-            if not ok.any():
-                self.counts["measurements_missing"] += 1
-                return None
-            pred = self._pred
-            dp = self.params.to_model(self.eta) - self._p_pred
-            z_hat = pred.z + pred.H @ self.model.local(self.x, pred.x) + pred.Hp @ dp
-            z_hat[:3] += self.accel_bias
-            H = np.zeros((value.size, N))
-            H[:, :n] = pred.H
-            H[:3, self.i_ba] = np.eye(3)
-            H[:, self.i_eta] = pred.Hp @ self._J_eta
+            if z.kind == "gyro":
+                z_hat, H = self._gyro_model()
+            elif z.kind == "accelerometer":
+                z_hat, H = self._accelerometer_model()
+            else:
+                z_hat = self.model.arm_angles(self.x)
+                H = np.zeros((z_hat.size, N))
+                H[np.arange(z_hat.size), self.i_arm] = 1.0
             nu = (value - z_hat)[ok]
             H = H[ok]
             R = np.asarray(z.R, dtype=float)[np.ix_(ok, ok)]
         else:
-            raise ValueError(f"measurement kind: expected star_tracker, gyro or accelerations, found {z.kind!r}")
+            raise ValueError("measurement kind: expected star_tracker, gyro, accelerometer or encoders, "
+                             f"found {z.kind!r}")
         try:
             res = kalman.update(np.zeros(N), self.P, nu, H, R, gate_probability=self.gate(z.kind), consider=self.i_con)
         except CovarianceError as exc:
@@ -258,8 +315,28 @@ class AugmentedEKF(FilterBase):
         self.x = self.model.retract(self.x, dx[:n])
         self.gyro_bias = self.gyro_bias + dx[self.i_bg]
         self.accel_bias = self.accel_bias + dx[self.i_ba]
+        self.gyro_cal = self.gyro_cal + dx[self.i_cal]
         self.eta = self.eta + dx[self.i_eta]
-        self._q_clone = rot.box_plus(self._q_clone, dx[self.i_clone])
+        c = self.i_clone.start
+        q0, v0, w0 = self._clone
+        self._clone = (rot.box_plus(q0, dx[c:c + 3]), v0 + dx[c + 3:c + 6], w0 + dx[c + 6:c + 9])
+
+    # ------------------------------------------------------------------ faults
+    def snapshot(self):
+        """The filter's estimate and covariance, to :meth:`restore` (a fault found late is re-processed)."""
+        return (self.x.copy(), self.P.copy(), self.gyro_bias.copy(), self.accel_bias.copy(), self.gyro_cal.copy(),
+                self.eta.copy(), self._clone, self._dt, self.t)
+
+    def restore(self, snap) -> None:
+        """Back to a :meth:`snapshot`."""
+        x, P, bg, ba, cal, eta, self._clone, self._dt, self.t = snap
+        self.x, self.P, self.gyro_bias, self.accel_bias = x.copy(), P.copy(), bg.copy(), ba.copy()
+        self.gyro_cal, self.eta = cal.copy(), eta.copy()
+
+    def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
+        """Add ``sigma^2`` to the variance of a bias: the gyro's or the accelerometer's, on one axis."""
+        index = (self.i_bg if sensor == "gyro" else self.i_ba).start + axis
+        self.P[index, index] += sigma**2
 
     # ------------------------------------------------------------------ outputs
     @property
@@ -284,14 +361,17 @@ class AugmentedEKF(FilterBase):
 
     def _recover(self, kind: str, t: float) -> None:
         nv = self.n // 2
+        bias_g = np.arange(self.i_bg.start, self.i_bg.stop)
         if kind == "star_tracker":
-            self._inflate(np.r_[np.arange(self.att.start, self.att.stop), np.arange(self.i_bg.start, self.i_bg.stop)])
+            self._inflate(np.r_[np.arange(self.att.start, self.att.stop), bias_g])
             self.P[self.i_bg, self.i_bg] += self.policy.gyro_bias_bump**2 * np.eye(3)
         elif kind == "gyro":
-            self._inflate(np.r_[np.arange(nv + 3, nv + 6), np.arange(self.i_bg.start, self.i_bg.stop)])
+            self._inflate(np.r_[np.arange(nv + 3, nv + 6), bias_g])
             self.P[self.i_bg, self.i_bg] += self.policy.gyro_bias_bump**2 * np.eye(3)
-        else:  # the accelerations: the plant's velocities and the accelerometer bias; a transient the model
-            # misses (a torque step ringing the arm) is the state's to absorb, not a reason to forget the mass
+        elif kind == "encoders":  # the arm's angles and rates
+            self._inflate(np.r_[self.i_arm, self.i_arm + nv])
+        else:  # the accelerometer: the plant's velocities and its bias; a transient the model misses (a torque
+            # step ringing the arm) is the state's to absorb, not a reason to forget the mass
             self._inflate(np.r_[np.arange(nv, self.n), np.arange(self.i_ba.start, self.i_ba.stop)])
 
     def _reinitialise(self, t: float) -> None:

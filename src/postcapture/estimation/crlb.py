@@ -9,7 +9,9 @@ state is computed from the parameters). Each measurement's sensitivity follows:
 
 - star tracker: ``S_k[att]`` and ``I`` on the initial attitude (to first order);
 - gyro mean rate over ``[t_k, t_k+1]``: ``(Jr^-1 S_k+1[att] - Jl^-1 S_k[att]) / dt`` and ``I`` on its bias;
-- accelerations: ``H_k S_k + Hp_k D``, and ``I`` on the accelerometer bias.
+- accelerometer mean specific force over ``[t_k, t_k+1]`` (:mod:`.increments`): its Jacobians with respect
+  to the chaser's attitude, velocity and rate at both ends times their sensitivities, and ``I`` on its bias;
+- encoders: ``S_k+1`` on the arm's joint angles.
 
 The Fisher information ``J = J_prior + sum_k G_k^T R^-1 G_k`` (``J_prior`` the inverse of the declared
 priors: the Bayesian bound) gives the bound ``sqrt(g^T J^-1 g)`` with ``g = dm/dtheta``: no estimator of
@@ -25,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from postcapture.core import rotations as rot
+from postcapture.estimation.increments import mean_specific_force
 
 __all__ = ["MassCRLB", "mass_crlb"]
 
@@ -37,8 +40,8 @@ class MassCRLB:
     star_tracker: float | None
     gyro: float | None
     accelerometer: float | None
-    joints: float | None
-    accelerations_only: float | None  # accelerometer and joints together
+    joints: float | None  # the encoders
+    accelerations_only: float | None  # accelerometer and encoders together
     history: np.ndarray = field(default_factory=lambda: np.zeros(0))  # all sensors, data up to each instant
 
     def as_dict(self) -> dict:
@@ -78,7 +81,7 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
     sigma_gyro : float
         One-sigma noise of a gyro sample (rad/s).
     R_accel : ndarray (m,)
-        Variances of the accelerometer (3) and joint-acceleration samples.
+        Variances of the accelerometer's mean specific force (3) and of the encoders' readings (n_arm).
     prior_information : ndarray (k, k), optional
         Inverse of the coordinates' prior covariance (none: no prior on them).
     bias_priors : (float, float), optional
@@ -117,12 +120,17 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
         G[:, :k] = S1[att]
         G[:, iq] = np.eye(3)
         J["star"] += G.T @ W_star @ G
-        dz = p.H @ S1 + p.Hp @ D
-        G = np.zeros((dz.shape[0], n_t))
-        G[:, :k] = dz
-        G[:3, ia] = np.eye(3)
-        J["accel"] += G[:3].T @ G[:3] / R_acc[0]
-        J["joints"] += (G[3:].T / R_acc[3:]) @ G[3:]
+        f, Jf = mean_specific_force(phi, model.chaser_velocity(x), model.body_rate(x), model.chaser_velocity(p.x),
+                                    model.body_rate(p.x), model.accelerometer_position, dt)
+        vel, rate = model.tangent_velocity, model.tangent_rate
+        G = np.zeros((3, n_t))
+        G[:, :k] = (Jf["att1"] @ S1[att] + Jf["v1"] @ S1[vel] + Jf["w1"] @ S1[rate]
+                    + Jf["att0"] @ S[att] + Jf["v0"] @ S[vel] + Jf["w0"] @ S[rate])
+        G[:, ia] = np.eye(3)
+        J["accel"] += G.T @ G / R_acc[0]
+        G = np.zeros((len(model.tangent_arm), n_t))
+        G[:, :k] = S1[model.tangent_arm]
+        J["joints"] += (G.T / R_acc[3:]) @ G
         x, S = p.x, S1
         if step % 10 == 9 or step == t_grid.size - 2:
             history[step + 1] = _bound(J_prior + sum(J.values()) + 1e-30 * np.eye(n_t), g)

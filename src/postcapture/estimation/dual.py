@@ -8,8 +8,10 @@ Each filter step from ``t_k`` to ``t_k+1``:
 3. the attitude filter corrects the plant copy's attitude: the model-based EKF with the star tracker
    (the copy is its process model), or the gyro-driven MEKF whose attitude and bias-corrected rate
    then overwrite the copy's (the overwritten components no longer depend on the mass: ``S = 0``);
-4. the mass filter corrects with the measured accelerations against those the plant copy predicts
-   at the corrected state, using ``dz/dtheta`` (total or partial, see :mod:`mass_filter`);
+4. the mass filter corrects with the accelerometer's mean specific force over the step and the
+   encoders' angles at its end (:mod:`.increments`) against those the plant copy predicts from its state
+   at the step's start and its corrected state at the end, using ``dz/dtheta`` (total: through the state
+   sensitivities at both ends; partial: at a fixed state at the step's start, through the step alone);
 5. with ``shift_state`` the plant copy moves to first order onto the trajectory of the new mass,
    ``x <- x (+) S d(theta)``: the copy then behaves as if it had run with the new mass all along.
 
@@ -34,10 +36,11 @@ from postcapture.core.errors import FilterDivergenceError
 from postcapture.estimation.attitude_ekf import AttitudeEKF, AttitudeEKFTuning
 from postcapture.estimation.filter import Measurement
 from postcapture.estimation.history import EstimateHistory, StepFlag
+from postcapture.estimation.increments import mean_specific_force
 from postcapture.estimation.mass_filter import MassFilter, MassFilterTuning
 from postcapture.estimation.mekf import MEKF, MEKFTuning
 
-__all__ = ["SensorSuite", "DualConfig", "DualResult", "on_grid", "run_dual"]
+__all__ = ["SensorSuite", "DualConfig", "DualResult", "on_grid", "run_dual", "device_prediction"]
 
 
 @dataclass
@@ -114,6 +117,21 @@ class DualResult:
     counts: dict
 
 
+def device_prediction(model, x0, x1, dt: float, S0, S1):
+    """The accelerometer's mean specific force over a step and the encoders' angles at its end, predicted from
+    the plant states ``x0`` and ``x1`` at its two ends, and their derivatives along the state sensitivities
+    ``S0`` and ``S1`` (tangent, (n,)) at those ends: ``(z (3 + n_arm), dz (3 + n_arm))``."""
+    q0, q1 = model.attitude(x0), model.attitude(x1)
+    phi = rot.box_minus(q1, q0)
+    f, J = mean_specific_force(phi, model.chaser_velocity(x0), model.body_rate(x0), model.chaser_velocity(x1),
+                               model.body_rate(x1), model.accelerometer_position, dt)
+    att, vel, rate = model.tangent_attitude, model.tangent_velocity, model.tangent_rate
+    df = (J["att1"] @ S1[att] + J["v1"] @ S1[vel] + J["w1"] @ S1[rate]
+          + J["att0"] @ S0[att] + J["v0"] @ S0[vel] + J["w0"] @ S0[rate])
+    arm = model.tangent_arm
+    return np.concatenate([f, model.arm_angles(x1)]), np.concatenate([df, S1[arm]])
+
+
 def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: float, t_grid, S0=None,
              q0_BN=None, raise_on_divergence: bool = True, progress=None) -> DualResult:
     """Run the dual scheme over a time grid.
@@ -157,7 +175,8 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
     S = np.zeros(model.n) if S0 is None else np.array(S0, dtype=float)
     star = on_grid(sensors.star, t_grid)
     gyro = on_grid(sensors.gyro, t_grid)
-    z_meas = np.vstack([on_grid(sensors.accel, t_grid), on_grid(sensors.joints, t_grid)])
+    accel = on_grid(sensors.accel, t_grid)  # sample k: the increment over [t_k, t_k+1]
+    angles = on_grid(sensors.joints, t_grid)
     R_z = np.diag(config.mass.R_diag)
 
     mass = MassFilter(config.mass, theta0, t_grid[0], t_grid[-1], name=f"{config.name}/mass")
@@ -177,11 +196,12 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
     mass_nis = np.full(n_t, np.nan)
     inputs_missing = 0
     q_hist[:, 0] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
-    P_hist[..., 0] = filt.P
+    P_hist[..., 0] = filt.P[:m_err, :m_err]
     theta[0], sigma[0] = mass.theta, mass.sigma
     last_gyro = None
     for k in range(n_t - 1):
         t, t1 = t_grid[k], t_grid[k + 1]
+        x_start, S_start = x.copy(), S.copy()
         mass.predict(t, dt)
         model.mass = mass.theta
         if config.attitude == "ekf":
@@ -222,11 +242,14 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
         else:
             flags[k + 1] |= StepFlag.UPDATED
             nis[k + 1] = res.nis
-        # measurement predicted at the corrected state, to first order from the prediction
-        z_hat = p.z + p.H @ model.local(x, p.x)
-        dz = p.H @ S + p.h if config.mass.sensitivity == "total" else p.h
+        # the step's increments and the encoders, predicted from the corrected states at its two ends
+        if config.mass.sensitivity == "total":
+            z_hat, dz = device_prediction(model, x_start, x, dt, S_start, S)
+        else:  # at a fixed state at the step's start: the mass acts through this step alone
+            z_hat, dz = device_prediction(model, x_start, x, dt, np.zeros(model.n), p.g)
         theta_before = mass.theta
-        mres = mass.update(Measurement("accelerations", t1, z_meas[:, k + 1] - z_hat, R_z, H=dz))
+        z_meas = np.concatenate([accel[:, k], angles[:, k + 1]])
+        mres = mass.update(Measurement("accelerations", t1, z_meas - z_hat, R_z, H=dz))
         if mres is not None and mres.accepted:
             mass_nis[k + 1] = mres.nis
             if config.shift_state and config.mass.sensitivity == "total":
@@ -234,7 +257,7 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
                 if config.attitude == "ekf":
                     filt.x = x
         q_hist[:, k + 1] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
-        P_hist[..., k + 1] = filt.P
+        P_hist[..., k + 1] = filt.P[:m_err, :m_err]
         theta[k + 1], sigma[k + 1] = mass.theta, mass.sigma
         if progress is not None and k % 50 == 0:
             progress((k + 1) / (n_t - 1))

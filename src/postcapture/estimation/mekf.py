@@ -15,6 +15,12 @@ Between two instants ``dt`` apart the estimated rate ``w = omega_meas - b_est`` 
     Q = \begin{bmatrix} (\sigma_v^2 dt + \sigma_u^2 dt^3/3) I & -\sigma_u^2 dt^2/2\, I \\
                         -\sigma_u^2 dt^2/2\, I & \sigma_u^2 dt\, I \end{bmatrix}.
 
+With a 15 x 15 ``P0`` the filter also estimates the gyro's calibration, the three scale-factor errors
+``s`` and the six misalignments ``m`` of ``omega_meas = (I + diag(s) + M) omega + b + noise`` (Markley and
+Crassidis, section 6.4.1): the rate is ``w = (I + diag(s) + M)^-1 (omega_meas - b)``, its error is
+``-db - D dc`` with ``D = [diag(w), the misalignment's columns]``, and the attitude error's column for the
+calibration is the bias column times ``D``. The calibration terms are constants.
+
 References
 ----------
 E. J. Lefferts, F. L. Markley, M. D. Shuster, "Kalman filtering for spacecraft attitude estimation",
@@ -45,6 +51,7 @@ from postcapture.core.units import DEG
 from postcapture.estimation.attitude_ekf import REACQUIRE_ATTITUDE
 from postcapture.estimation.filter import FilterBase, Measurement
 from postcapture.estimation.history import EstimateHistory, SampledSignal, StepFlag
+from postcapture.core.triad import CALIBRATION_LABELS, calibration_matrix, calibration_sensitivity
 
 __all__ = [
     "MEKFTuning",
@@ -56,8 +63,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-_H = np.hstack([np.eye(3), np.zeros((3, 3))])
 ERROR_LABELS = ("dtheta_x", "dtheta_y", "dtheta_z", "dbias_x", "dbias_y", "dbias_z")
+
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,8 +177,9 @@ class MEKF(FilterBase):
         Noise model and safeguards.
     q0_BN : array_like, shape (4,)
         Initial attitude estimate.
-    P0 : array_like, shape (6, 6)
-        Initial error covariance (rad^2 and (rad/s)^2).
+    P0 : array_like, shape (6, 6) or (15, 15)
+        Initial error covariance (rad^2 and (rad/s)^2); (15, 15) also estimates the gyro calibration
+        (see the module docstring).
     bias0_B : array_like, shape (3,), optional
         Initial gyro-bias estimate (rad/s); zero by default.
     t0 : float
@@ -195,10 +203,14 @@ class MEKF(FilterBase):
         self.q_BN = rot.normalize(_vec(q0_BN, "q0_BN", 4))
         self.bias_B = np.zeros(3) if bias0_B is None else _vec(bias0_B, "bias0_B", 3)
         P0 = np.asarray(P0, dtype=float)
-        if P0.shape != (6, 6):
+        if P0.shape not in ((6, 6), (15, 15)):
             raise DimensionError(
-                f"Incompatible dimensions of P0 matrix; expected (6, 6) but found {P0.shape}"
+                f"Incompatible dimensions of P0 matrix; expected (6, 6) or (15, 15) but found {P0.shape}"
             )
+        self.m = P0.shape[0]
+        self.labels = ERROR_LABELS + (tuple(f"d{label}" for label in CALIBRATION_LABELS) if self.m == 15 else ())
+        self.calibration = np.zeros(self.m - 6)
+        self._H = np.hstack([np.eye(3), np.zeros((3, self.m - 3))])
         self.P = kalman.symmetrize(P0)
         self._P0 = self.P.copy()
         self.t = float(t0)
@@ -216,13 +228,24 @@ class MEKF(FilterBase):
         if not np.all(np.isfinite(w)):
             raise ValueError("`u` must be finite; skip or hold missing gyro samples before calling predict")
         w = w - self.bias_B
+        if self.m == 15:
+            w = np.linalg.solve(calibration_matrix(self.calibration), w)
         self.q_BN = rot.box_plus(self.q_BN, w * dt)
         Q = self._Q_cache.get(dt)
         if Q is None:
             if len(self._Q_cache) > 64:  # irregular steps: keep the cache small
                 self._Q_cache.clear()
-            Q = self._Q_cache[dt] = process_noise(self.tuning.sigma_v, self.tuning.sigma_u, dt)
-        _, self.P = kalman.predict(np.zeros(6), self.P, error_transition(w, dt), Q)
+            Q = np.zeros((self.m, self.m))
+            Q[:6, :6] = process_noise(self.tuning.sigma_v, self.tuning.sigma_u, dt)
+            self._Q_cache[dt] = Q
+        Phi6 = error_transition(w, dt)
+        if self.m == 15:
+            Phi = np.eye(15)
+            Phi[:6, :6] = Phi6
+            Phi[:3, 6:] = Phi6[:3, 3:] @ calibration_sensitivity(w)
+        else:
+            Phi = Phi6
+        _, self.P = kalman.predict(np.zeros(self.m), self.P, Phi, Q)
         self.t = float(t) + dt
         self.check_covariance(self.t, "prediction")
 
@@ -238,7 +261,7 @@ class MEKF(FilterBase):
             return None
         innovation = rot.box_minus(q, self.q_BN)
         try:
-            res = kalman.update(np.zeros(6), self.P, innovation, _H, z.R, gate_probability=self.gate(z.kind))
+            res = kalman.update(np.zeros(self.m), self.P, innovation, self._H, z.R, gate_probability=self.gate(z.kind))
         except CovarianceError as exc:
             self.diverge(z.t, str(exc))
             return None
@@ -246,22 +269,36 @@ class MEKF(FilterBase):
             # reset: move the error into the attitude and the bias (the covariance reset Jacobian
             # I - [dtheta x]/2 differs from I at second order only, and is left out as usual)
             self.q_BN = rot.box_plus(self.q_BN, res.x[:3])
-            self.bias_B = self.bias_B + res.x[3:]
+            self.bias_B = self.bias_B + res.x[3:6]
+            self.calibration = self.calibration + res.x[6:]
             self.P = res.P
         self.record(z.kind, z.t, res.nis, 3, res.accepted)  # after the update: a recovery inflates the new P
         if res.accepted:
             self.check_covariance(z.t, "update")
         return res
 
+    def snapshot(self):
+        """Attitude, bias, calibration and covariance, to :meth:`restore`."""
+        return self.q_BN.copy(), self.bias_B.copy(), self.calibration.copy(), self.P.copy(), self.t
+
+    def restore(self, snap) -> None:
+        """Back to a :meth:`snapshot`."""
+        q, b, c, P, self.t = snap
+        self.q_BN, self.bias_B, self.calibration, self.P = q.copy(), b.copy(), c.copy(), P.copy()
+
+    def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
+        """Add ``sigma^2`` to the variance of the gyro bias on one axis (``sensor`` is ``"gyro"``)."""
+        self.P[3 + axis, 3 + axis] += sigma**2
+
     def _recover(self, kind: str, t: float) -> None:
         d = np.sqrt(self.policy.inflation)
         self.P = self.P * d * d
-        self.P[3:, 3:] += self.policy.gyro_bias_bump**2 * np.eye(3)
+        self.P[3:6, 3:6] += self.policy.gyro_bias_bump**2 * np.eye(3)
 
     def _reinitialise(self, t: float) -> None:
         self.P = self._P0.copy()
         self.P[:3, :3] += REACQUIRE_ATTITUDE**2 * np.eye(3)  # lost: the next star-tracker sample decides
-        self.P[3:, 3:] += self.reacquire_bias**2 * np.eye(3)
+        self.P[3:6, 3:6] += self.reacquire_bias**2 * np.eye(3)
 
 
 def _vec(v, name: str, n: int) -> np.ndarray:

@@ -8,8 +8,10 @@ State
 -----
 ``x`` is a flat float vector of length ``nx``; its tangent (error) space has dimension ``n``.
 ``retract(x, dx)`` and ``local(x1, x0)`` map between them (box-plus / box-minus). The attitude error
-(3, body frame, right perturbation) sits at ``tangent_attitude`` and the body-rate error at
-``tangent_rate``.
+(3, body frame, right perturbation) sits at ``tangent_attitude``, the error of the chaser's linear
+velocity (body frame) at ``tangent_velocity``, the body-rate error at ``tangent_rate`` and the arm's
+joint-angle errors at the indices ``tangent_arm``: what the sensors read (see
+:mod:`postcapture.estimation.increments`).
 
 One step
 --------
@@ -42,7 +44,10 @@ class ProcessModel(Protocol):
     n: int
     n_meas: int
     tangent_attitude: slice
+    tangent_velocity: slice
     tangent_rate: slice
+    tangent_arm: np.ndarray
+    accelerometer_position: np.ndarray
 
     @property
     def mass(self) -> float:
@@ -71,3 +76,9 @@ class ProcessModel(Protocol):
 
     def body_rate(self, x: np.ndarray) -> np.ndarray:
         """Chaser body rate ``omega_BN_B`` (rad/s) of a state."""
+
+    def chaser_velocity(self, x: np.ndarray) -> np.ndarray:
+        """Velocity of the chaser's origin B (its centre of mass), body components (m/s)."""
+
+    def arm_angles(self, x: np.ndarray) -> np.ndarray:
+        """The arm's joint angles (rad) of a state."""

@@ -105,9 +105,9 @@ def _noise(n: dict) -> str:
                                                   ("micro-g/sqrt(Hz)", MICRO_G * math.sqrt(rate))])
     bias = n["accelerometer_bias_m_s2"]
     bias_text = f", bias {in_given_unit(bias, [('m/s^2', 1.0), ('micro-g', MICRO_G)])}" if bias else ""
-    joints = in_given_unit(n["joint_acceleration_rad_s2"], [("rad/s^2", 1.0)])
+    joints = in_given_unit(n["encoder_rad"], [("rad", 1.0), ("arcsec", ARCSEC)])
     return (f"sensor noise (1 sigma), all at {rate:g} Hz: star tracker {star}; gyro angle random walk {arw}; "
-            f"accelerometer {acc}{bias_text}; joint accelerations {joints}")
+            f"accelerometer velocity random walk {acc}{bias_text}; joint encoders {joints}")
 
 
 def results_table(summary: dict, *, width: int = WIDTH) -> str:
@@ -148,7 +148,7 @@ def results_table(summary: dict, *, width: int = WIDTH) -> str:
     att_cells = {}
     for n, m in cases.items():
         att_cells[n] = [_fmt(m["attitude_rms_arcsec"], ".3g", "-"), _fmt(m["attitude_rms_steady_arcsec"], ".3g", "-"),
-                        _fmt(m["inside_3sigma"], ".1%", "-"), _fmt(m["nees_mean"], ".3g", "-"),
+                        _fmt(m["attitude_inside_3sigma_fraction"], ".1%", "-"), _fmt(m["nees_mean"], ".3g", "-"),
                         _fmt(m["nis_mean"], ".2f", "-")]
     lines.append("Attitude (steady: second half of the run; NEES, NIS: means, 3 expected)")
     lines += _rows(names, att_header, att_cells, width)
@@ -170,10 +170,23 @@ def results_table(summary: dict, *, width: int = WIDTH) -> str:
         notes += wrap(text, indent="  ", width=width)
     far = summary.get("farrenkopf") or {}
     for n, v in far.items():
-        if isinstance(v, dict) and "ratio" in v:
+        if not isinstance(v, dict) or "steady" not in v:
+            continue
+        if v["steady"]:
             ratios = ", ".join(f"{r:.2f}" for r in v["ratio"])
             notes += wrap(f"{n}: steady attitude error / Farrenkopf's bound per star-tracker axis "
-                          f"(cross, cross, boresight): {ratios}", indent="  ", width=width)
+                          f"(cross, cross, boresight), last quarter of the run: {ratios}", indent="  ", width=width)
+        else:
+            own = ", ".join(f"{r:.2f}" for r in v["own_sigma_over_bound"])
+            err = ", ".join(f"{r:.2f}" for r in v["error_over_own_sigma"])
+            notes += wrap(f"{n}: not yet in steady state at the end of the run (too short for Farrenkopf's "
+                          f"bound): its own sigma is {own} times the bound per star-tracker axis (cross, cross, "
+                          f"boresight), its error {err} times its own sigma", indent="  ", width=width)
+    for n, m in cases.items():
+        for d in m.get("detections") or ():
+            notes += wrap(f"{n}: {d['text']}", indent="  ", width=width)
+        for f in m.get("model_inconsistent") or ():
+            notes += wrap(f"{n}: {f['text']} (flagged at {f['time_s']:.1f} s)", indent="  ", width=width)
     if summary.get("noise"):
         notes += wrap(_noise(summary["noise"]), indent="  ", width=width)
     if notes:

@@ -28,7 +28,7 @@ from postcapture.estimation.mass_filter import MassFilterTuning
 from postcapture.estimation.mekf import MEKFTuning
 from postcapture.sensors.profiles import SensorProfile
 
-__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "RECOMMENDED", "default_cases", "dual_config", "gyro_sample_sigma"]
+__all__ = ["CaseSpec", "CASES", "DEFAULT_CASES", "RECOMMENDED", "default_cases", "dual_config", "filter_noise"]
 
 
 @dataclass(frozen=True)
@@ -69,11 +69,19 @@ def default_cases(plant: str = "native") -> tuple[tuple[str, ...], tuple[str, ..
     return kept, tuple(c for c in DEFAULT_CASES if c not in kept)
 
 
-def gyro_sample_sigma(profile: SensorProfile) -> float:
-    """White one-sigma of one gyro sample (rad/s): ``sqrt(sigma_v^2 / dt + sigma_u^2 dt / 12)``."""
-    g = profile.gyro
-    dt = 1.0 / g.rate
-    return float(np.sqrt(g.sigma_v**2 / dt + g.sigma_u**2 * dt / 12.0))
+def filter_noise(profile: SensorProfile, tuning: ResolvedTuning, n_arm: int) -> dict:
+    """Each sensor's noise covariance as the recommended filters assume it, by measurement kind.
+
+    The gyro's white part of one mean-rate sample, the star tracker's tuning, the accelerometer's
+    mean specific force (its velocity random walk over one sample) and each encoder's reading (noise and
+    quantisation).
+    """
+    return {
+        "gyro": profile.gyro.sample_sigma**2 * np.eye(3),
+        "star_tracker": np.asarray(tuning.star_covariance, dtype=float),
+        "accelerometer": profile.accelerometer.sigma**2 * np.eye(3),
+        "encoders": profile.joints.sample_sigma**2 * np.eye(n_arm),
+    }
 
 
 def _sigmoid(tuning: ResolvedTuning) -> SigmoidMap:
@@ -102,8 +110,11 @@ def dual_config(spec: CaseSpec, profile: SensorProfile, profile_name: str, tunin
                             P0=tuning.attitude_P0, gate_probability=tuning.gate_probability)
     mekf = MEKFTuning(sigma_v=profile.gyro.sigma_v, sigma_u=profile.gyro.sigma_u, star_covariance=tuning.star_covariance,
                       gate_probability=tuning.gate_probability, name=f"{spec.name}/mekf")
-    mekf_P0 = np.zeros((6, 6))
+    calibrated = tuning.gyro_scale_sigma > 0 or tuning.gyro_misalignment_sigma > 0
+    mekf_P0 = np.zeros((15, 15) if calibrated else (6, 6))
     mekf_P0[:3, :3] = tuning.attitude_P0
-    mekf_P0[3:, 3:] = tuning.gyro_bias_initial_sigma**2 * np.eye(3)
+    mekf_P0[3:6, 3:6] = tuning.gyro_bias_initial_sigma**2 * np.eye(3)
+    if calibrated:  # the gyro's scale factors and misalignments (section 6.4.1 of Markley and Crassidis)
+        mekf_P0[6:, 6:] = np.diag([tuning.gyro_scale_sigma**2] * 3 + [tuning.gyro_misalignment_sigma**2] * 6)
     return DualConfig(spec.attitude, mass, ekf=ekf, mekf=mekf, mekf_P0=mekf_P0, shift_state=spec.shift_state,
                       mass_aware_q=(profile_name != "reference" and spec.mass_sensitivity == "total"), name=spec.name)

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from postcapture.studies.cases import CASES, DEFAULT_CASES, dual_config, gyro_sample_sigma
+from postcapture.studies.cases import CASES, DEFAULT_CASES, dual_config, filter_noise
 from postcapture.studies.metrics import ARCSEC, case_metrics
 from postcapture.studies.pool import run_jobs
 from postcapture.studies.sensing import measure_all
@@ -114,7 +114,8 @@ def simulate_truth(plan: RunPlan, progress: Callable[[float], None] | None = Non
 def draw_sensors(plan: RunPlan, traj, seed: int):
     """The truth's sensor records under the plan's faults, and the filters' initial attitude error (rad, 3)."""
     rng = np.random.default_rng(seed)
-    sensors = measure_all(traj, plan.truth_profile, rng, plan.scenario.faults)
+    sensors = measure_all(traj, plan.truth_profile, rng, plan.scenario.faults,
+                          accelerometer_position=plan.truth.scenario.chaser.accelerometer_position)
     dq0 = np.linalg.cholesky(plan.tuning.attitude_P0) @ rng.standard_normal(3)
     return sensors, dq0
 
@@ -148,8 +149,8 @@ def _run_case_unguarded(plan: RunPlan, case: str, sensors, q0_true, dq0, progres
     scenario = plan.scenario
     spec = CASES[case]
     theta0 = plan.initial_mass
-    native = NativeProcessModel(build_system(scenario, spec.variant), scenario.simulation.step,
-                                scenario.simulation.integrator, name=spec.name)
+    est = scenario.estimation
+    native = NativeProcessModel(build_system(scenario, spec.variant), est.model_step, est.integrator, name=spec.name)
     q0 = rot.box_plus(np.asarray(q0_true, dtype=float), dq0)
     t_grid = plan.t_grid
     if spec.scheme in ("dual", "joint"):
@@ -180,18 +181,43 @@ def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
     from postcapture.estimation.schemes import run_dual_scheme, run_joint_scheme
 
     prof, tun = plan.filter_profile, plan.tuning
-    R_gyro = gyro_sample_sigma(prof) ** 2 * np.eye(3)
-    R_accel = np.concatenate([np.full(3, prof.accelerometer.sigma**2), np.full(plan.scenario.n_arm, prof.joints.sigma**2)])
+    R = filter_noise(prof, tun, plan.scenario.n_arm)
     panel_mass = sum(p.mass for p in plan.scenario.target.panels)
     if spec.scheme == "joint":
         filt = build_augmented(plan, model, q0, name=spec.name)
-        return run_joint_scheme(filt, sensors, plan.t_grid, R_gyro=R_gyro, R_star=tun.star_covariance, R_accel=R_accel,
-                                panel_mass=panel_mass, progress=progress, name=spec.name)
+        return run_joint_scheme(filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
+                                name=spec.name)
     cfg = dual_config(spec, prof, plan.profile_name, tun, plan.scenario.n_arm, plan.initial_mass)
     mekf = MEKF(cfg.mekf, q0, cfg.mekf_P0, t0=plan.t_grid[0])
     filt = build_augmented(plan, model, q0, name=f"{spec.name}/parameters")
-    return run_dual_scheme(mekf, filt, sensors, plan.t_grid, R_gyro=R_gyro, R_accel=R_accel, panel_mass=panel_mass,
-                           progress=progress, name=spec.name)
+    return run_dual_scheme(mekf, filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
+                           name=spec.name)
+
+
+STEADY_RATIO = 1.2
+"""The filter is taken to be in steady state where its own sigma is within this factor of Farrenkopf's bound."""
+
+
+def _farrenkopf_comparison(hist, q_true, star, bound_arcsec) -> dict:
+    """Steady error per star-tracker axis against Farrenkopf's bound, where the filter has reached it.
+
+    The filter is in steady state where its own 1-sigma (from its covariance) is within ``STEADY_RATIO`` of
+    the bound on every axis; the comparison uses the last quarter of the run if it is, and otherwise says
+    that the run is too short and gives the filter's own sigma at the end beside the bound (the
+    covariance-predicted transient).
+    """
+    axes = star.sensor_axes_B()  # columns: e1, e2, boresight (body components)
+    P = np.einsum("ai,ijk,jb->abk", axes.T, hist.P[:3, :3], axes)
+    own = np.sqrt(np.einsum("iik->ik", P)) / ARCSEC  # (3, n) the filter's own sigma per axis
+    window = hist.t >= hist.t[0] + 0.75 * (hist.t[-1] - hist.t[0])
+    e = axes.T @ rot.box_minus(q_true[:, window], hist.q_BN[:, window]) / ARCSEC
+    rms = np.sqrt(np.mean(e**2, axis=1))
+    own_end = np.sqrt(np.mean(own[:, window] ** 2, axis=1))
+    steady = bool(np.all(own_end <= STEADY_RATIO * bound_arcsec))
+    return {"steady": steady, "empirical_arcsec": rms.tolist(), "own_sigma_arcsec": own_end.tolist(),
+            "ratio": (rms / bound_arcsec).tolist() if steady else None,
+            "own_sigma_over_bound": (own_end / bound_arcsec).tolist(),
+            "error_over_own_sigma": (rms / own_end).tolist()}
 
 
 def _run_case(job: dict, progress=None):
@@ -292,16 +318,10 @@ def run_main_job(
              for s in (st.sigma_cross, st.sigma_cross, st.sigma_roll)]
     res.farrenkopf = {"axes": "star-tracker cross, cross, boresight (after update)",
                       "bound_arcsec": [float(b.attitude_post / ARCSEC) for b in bound]}
-    axes = st.sensor_axes_B()  # columns: e1, e2, boresight (body components)
     for name, case in res.cases.items():
-        if CASES[name].attitude != "mekf":
-            continue
-        hist = case.result.attitude
-        steady = hist.t >= hist.t[0] + 0.5 * (hist.t[-1] - hist.t[0])
-        e_B = rot.box_minus(traj["q_BN"][:, steady], hist.q_BN[:, steady])
-        rms = np.sqrt(np.mean((axes.T @ e_B) ** 2, axis=1)) / ARCSEC
-        res.farrenkopf[name] = {"empirical_arcsec": rms.tolist(),
-                                "ratio": (rms / np.array(res.farrenkopf["bound_arcsec"])).tolist()}
+        if CASES[name].attitude == "mekf":
+            res.farrenkopf[name] = _farrenkopf_comparison(case.result.attitude, traj["q_BN"], st,
+                                                          np.array(res.farrenkopf["bound_arcsec"]))
     res.noise = {
         "star_tracker_cross_arcsec": st.sigma_cross / ARCSEC,
         "star_tracker_roll_arcsec": st.sigma_roll / ARCSEC,
@@ -309,7 +329,7 @@ def run_main_job(
         "gyro_bias_walk_rad_s15": sensor_profile.gyro.sigma_u,
         "accelerometer_m_s2": sensor_profile.accelerometer.sigma,
         "accelerometer_bias_m_s2": float(np.max(np.abs(sensor_profile.accelerometer.bias_B))),
-        "joint_acceleration_rad_s2": sensor_profile.joints.sigma,
+        "encoder_rad": sensor_profile.joints.sample_sigma,
         "rate_hz": st.rate,
     }
     res.wall_s = time.perf_counter() - wall0

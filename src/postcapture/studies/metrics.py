@@ -43,7 +43,10 @@ def _case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float 
     """Metrics of a case (a :class:`~postcapture.estimation.dual.DualResult`).
 
     Attitude figures use the body-frame error ``box_minus(q_true, q_est)`` against the filter's own
-    attitude covariance; "steady" figures use the run after ``steady_from`` of its duration.
+    attitude covariance; "steady" figures use the run after ``steady_from`` of its duration: the error's
+    RMS per body axis and the filter's own sigma (RMS of its 1-sigma) over that window.
+    ``attitude_inside_3sigma_fraction`` is the share of instants at which every axis's error is within the
+    filter's 3 sigma; ``mass_inside_3sigma`` whether the final mass error is within its.
     """
     hist = result.attitude
     t = hist.t
@@ -62,17 +65,22 @@ def _case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float 
     lo3, hi3 = chi2_bounds(3, 1)
     last = np.nonzero(np.isfinite(result.mass))[0]
     last = last[-1] if last.size else -1
+    err_m, sig_m = float(mass_err[last]), float(result.mass_sigma[last])
     out = {
-        "mass_error_kg": float(mass_err[last]),
-        "mass_sigma_kg": float(result.mass_sigma[last]),
+        "mass_error_kg": err_m,
+        "mass_sigma_kg": sig_m,
+        "mass_inside_3sigma": bool(abs(err_m) <= 3.0 * sig_m) if np.isfinite(err_m) and np.isfinite(sig_m) else None,
         "mass_error_at_s": float(t[last]),
         "mass_nees_mean": float(np.nanmean(nees_m[1:])),
         "settle_1pct_s": settle_time(t, mass_err, 0.01 * m_true),
         "settle_01pct_s": settle_time(t, mass_err, 0.001 * m_true),
         "attitude_rms_arcsec": float(np.sqrt(np.nanmean(ang**2)) / ARCSEC),
         "attitude_rms_steady_arcsec": float(np.sqrt(np.nanmean(ang[steady] ** 2)) / ARCSEC),
-        "attitude_sigma_steady_arcsec": [finite_or_none(v) for v in np.sqrt(np.nanmean(e[:, steady] ** 2, axis=1)) / ARCSEC],
-        "inside_3sigma": float(np.mean(inside[ok])),
+        "attitude_error_rms_steady_arcsec": [finite_or_none(v)
+                                             for v in np.sqrt(np.nanmean(e[:, steady] ** 2, axis=1)) / ARCSEC],
+        "attitude_sigma_steady_arcsec": [finite_or_none(v)
+                                         for v in np.sqrt(np.nanmean(sig[:, steady] ** 2, axis=1)) / ARCSEC],
+        "attitude_inside_3sigma_fraction": float(np.mean(inside[ok])),
         "nees_mean": float(np.nanmean(nees)),
         "nees_band_single_run": [float(lo3), float(hi3)],
         "nis_mean": float(np.nanmean(hist.nis)) if np.isfinite(hist.nis).any() else None,
@@ -81,6 +89,10 @@ def _case_metrics(result, q_true: np.ndarray, m_true: float, steady_from: float 
         "rejected": int(result.counts.get("rejected", 0)),
         "success": bool(hist.success),
         "message": hist.message,
+        "detections": [{"time_s": d.time, "onset_s": d.onset, "sensor": d.sensor, "channel": d.channel,
+                        "size": d.size, "action": d.action, "text": d.describe()}
+                       for d in getattr(result, "detections", ())],
+        "model_inconsistent": [{"time_s": float(tt), "text": text} for tt, text in getattr(result, "validity", ())],
         "wall_s": float(result.wall_s),
     }
     return {k: (finite_or_none(v) if isinstance(v, float) else v) for k, v in out.items()}

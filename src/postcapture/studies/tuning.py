@@ -12,7 +12,7 @@ tuning                             reference                   realistic
 ``gyro_bias_initial_sigma``        ``[uncertainty] gyro_bias``, else 0.2 deg/h
 ``accelerometer_bias_initial_...`` ``[uncertainty] accelerometer_bias``, else twice the profile's bias
                                    (at least 5e-5 m/s^2)
-``mass_accel_sigma``, ``..joint``  0.01 m/s^2, 0.1 rad/s^2     the sensors'
+``mass_accel_sigma``, ``..joint``  0.01 m/s^2, 100 x encoder   the sensors'
 ``mass_process_variance``          20.1 to 0.1 (kg^2/step)     20.1 to 1e-4
 ``mass_bounds``                    the reference's (5000, 9000) kg scaled by nominal mass / 7827.9, widened
                                    to hold the initial estimate +- 3 prior sigmas (above the panels' mass)
@@ -67,6 +67,8 @@ class ResolvedTuning:
     model_process_variance: float
     mass_prior_sigma: float  # kg
     model_noise: float | dict | None  # None: derived from the declared truth discretisation (campaign.robust)
+    gyro_scale_sigma: float = 0.0  # relative, per axis: the gyro calibration prior (0: no calibration states)
+    gyro_misalignment_sigma: float = 0.0  # rad, per off-diagonal term
 
 
 def mass_prior_sigma(scenario: Scenario) -> float:
@@ -118,7 +120,8 @@ def resolve_tuning(scenario: Scenario, profile_name: str, profile: SensorProfile
         gyro_bias_initial_sigma=_pick(given.gyro_bias_initial_sigma, unc.offset("gyro_bias") or 0.2 * DEG_PER_HOUR),
         accelerometer_bias_initial_sigma=_pick(given.accelerometer_bias_initial_sigma, acc_bias),
         mass_accel_sigma=_pick(given.mass_accel_sigma, 0.01 if ref else profile.accelerometer.sigma),
-        mass_joint_sigma=_pick(given.mass_joint_sigma, 0.1 if ref else profile.joints.sigma),
+        # the reference read joint accelerations with R 100 times their noise; its encoders get the same ratio
+        mass_joint_sigma=_pick(given.mass_joint_sigma, (100.0 if ref else 1.0) * profile.joints.sample_sigma),
         mass_process_variance=tuple(given.mass_process_variance or ((20.1, 0.1) if ref else (20.1, 1e-4))),
         mass_bounds=(float(lo), float(hi)),
         sigmoid_c=_pick(given.sigmoid_c, 4.0 / (hi - lo)),
@@ -126,6 +129,8 @@ def resolve_tuning(scenario: Scenario, profile_name: str, profile: SensorProfile
         model_process_variance=_pick(given.model_process_variance, 1e-16),
         mass_prior_sigma=sigma_m,
         model_noise=given.model_noise,
+        gyro_scale_sigma=unc.offset("gyro_scale_factor") or profile.gyro.scale_factor_sigma,
+        gyro_misalignment_sigma=unc.offset("gyro_misalignment") or profile.gyro.misalignment_sigma,
     )
 
 

@@ -1,0 +1,81 @@
+r"""What the chaser's inertial sensors output over one filter cycle, as functions of the states at its ends.
+
+A rate-integrating gyro and a navigation accelerometer output increments over each sample period
+``[t_k, t_k+1]`` (see :mod:`postcapture.sensors.gyroscope` and :mod:`postcapture.sensors.accelerometer`):
+
+- the angle increment, the rotation vector from the body frame at ``t_k`` to that at ``t_k+1``,
+  ``phi = box_minus(q_k+1, q_k)``, reported as the mean rate ``phi / dt``;
+- the velocity increment of the sensor's point in the body frame at ``t_k``,
+  ``dv = C_{B_k N} (v_N(t_k+1) - v_N(t_k)) = Exp(phi) u_k+1 - u_k`` with ``u = v_B + omega x r`` the
+  sensor point's velocity in body components, reported as the mean specific force ``dv / dt``.
+
+Both are exact functions of the chaser's attitude and twist at the two ends of the cycle (no quadrature:
+the integral of an acceleration is a velocity change), so a filter predicts them from its state at
+``t_k`` (a clone) and its prediction at ``t_k+1`` with exact Jacobians. (Gravity-gradient specific force,
+when the orbit is modelled, adds its own integral; it is below a thousandth of the noise here.)
+
+Perturbations are right perturbations of each attitude (``q (+) d``) and additive on the twists.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from postcapture.core import rotations as rot
+
+__all__ = ["mean_rate", "mean_specific_force"]
+
+
+def mean_rate(q0_BN, q1_BN, dt: float):
+    """The mean body rate over a cycle ``phi / dt`` and its Jacobians.
+
+    Returns
+    -------
+    z : ndarray (3,)
+        ``box_minus(q1, q0) / dt`` (rad/s).
+    H1, H0 : ndarray (3, 3)
+        Derivatives with respect to the attitude errors at the end and at the start of the cycle.
+    phi : ndarray (3,)
+        The rotation vector (rad).
+    """
+    phi = rot.box_minus(q1_BN, q0_BN)
+    return phi / dt, rot.right_jacobian_inv(phi) / dt, -rot.left_jacobian_inv(phi) / dt, phi
+
+
+def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
+    """The sensor point's mean specific force over a cycle, ``(Exp(phi) u1 - u0) / dt``, and its Jacobians.
+
+    Parameters
+    ----------
+    phi : ndarray (3,)
+        Rotation vector from the body frame at the start to that at the end (``box_minus(q1, q0)``).
+    v0_B, w0_B, v1_B, w1_B : ndarray (3,)
+        Linear velocity of B's origin and body rate, body components, at the start and at the end (m/s, rad/s).
+    r_B : ndarray (3,)
+        The sensor's position in B (m).
+    dt : float
+        The cycle (s).
+
+    Returns
+    -------
+    z : ndarray (3,)
+        Mean specific force (m/s^2), body frame at the start of the cycle.
+    J : dict of str to ndarray (3, 3)
+        Derivatives with respect to ``att1``, ``att0`` (right perturbations of the attitudes at the end
+        and at the start), ``v1``, ``w1``, ``v0``, ``w0``.
+    """
+    E = rot.exp_matrix(phi)
+    R = rot.skew(r_B)
+    u0 = v0_B - R @ w0_B
+    u1 = v1_B - R @ w1_B
+    Eu1 = E @ u1
+    J = {
+        "att1": -(E @ rot.skew(u1)) / dt,
+        "att0": rot.skew(Eu1) / dt,
+        "v1": E / dt,
+        "w1": -(E @ R) / dt,
+        "v0": -np.eye(3) / dt,
+        "w0": R / dt,
+    }
+    return (Eu1 - u0) / dt, J
+

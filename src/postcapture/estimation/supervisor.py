@@ -1,0 +1,172 @@
+"""The recommended schemes' fault supervision: detect a change, go back to its onset, absorb or isolate it.
+
+Every innovation of the filters (accepted or gated) feeds a :class:`~postcapture.estimation.detect.
+ChangeDetector` per sensor; every update's NIS the :class:`~postcapture.estimation.detect.ValidityMonitor`.
+On an alarm the supervisor acts on what the sensor can be wrong by:
+
+- the gyro or the accelerometer (a bias the filters carry): the bias's covariance on that axis is
+  re-opened by the step the detector estimated (at least the recovery policy's bump for the gyro);
+- the star tracker (in the MEKF, a gyro bias step shows as a drifting attitude): the gyro bias on that
+  axis is re-opened by the drift rate the detector saw;
+- an encoder (no bias to carry): the channel is isolated and its samples are left out from then on;
+- a gyro or accelerometer axis that alarms again within ``isolation_window`` of its re-opening: the
+  accelerometer is isolated; the gyro, which drives the attitude, is flagged.
+
+The filters then go back to a state saved before the onset, take the action there and re-process the
+recorded measurements up to the present: the estimates the fault had already corrupted are recomputed
+as if the filters had known of the change from its onset. The histories keep what the filters said in
+real time; every detection is an event with its onset, alarm time, sensor, axis, estimated size and action.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from postcapture.core.units import DEG_PER_HOUR
+from postcapture.estimation.detect import ChangeDetector, DetectionPolicy, ValidityMonitor
+
+__all__ = ["Detection", "Supervisor"]
+
+_AXES = "xyz"
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One handled alarm (times in s, ``size`` in the sensor's unit: rad/s, m/s^2 or rad)."""
+
+    time: float
+    onset: float
+    sensor: str
+    channel: int
+    size: float
+    action: str
+
+    def describe(self) -> str:
+        """One line for logs and tables."""
+        where = f"joint {self.channel + 1}" if self.sensor == "encoders" else f"axis {_AXES[self.channel]}"
+        return (f"{self.sensor} {where}: change of {self.size:.3g} from {self.onset:.1f} s, detected at "
+                f"{self.time:.1f} s, {self.action}")
+
+
+@dataclass
+class Supervisor:
+    """Detection and handling of sensor faults for one scheme run (see the module docstring).
+
+    Parameters
+    ----------
+    policy : DetectionPolicy
+    dt : float
+        Filter step (s).
+    sigmas : dict of str to ndarray
+        Each sensor's noise 1-sigma per component (its unit), to size a detected change.
+    filters : dict of str to filter
+        ``{"attitude": MEKF or None, "plant": AugmentedEKF}``.
+    """
+
+    policy: DetectionPolicy
+    dt: float
+    sigmas: dict
+    filters: dict
+    detections: list = field(default_factory=list)
+    isolated: dict = field(default_factory=dict)  # sensor -> boolean mask of isolated components
+    flags: list = field(default_factory=list)  # "gyro inconsistent" and the like, with their times
+
+    def __post_init__(self):
+        self.detectors = {name: ChangeDetector(len(sig), self.policy.drift, self.policy.threshold)
+                          for name, sig in self.sigmas.items()}
+        self.validity = ValidityMonitor(self.policy, self.dt)
+        self._snaps: deque = deque(maxlen=max(int(self.policy.lookback / self.dt / 5) + 1, 2))
+        self._reopened: dict = {}
+        for name, sig in self.sigmas.items():
+            self.isolated[name] = np.zeros(len(sig), dtype=bool)
+
+    # ------------------------------------------------------------------ what the filters read
+    def mask(self, sensor: str, value: np.ndarray) -> np.ndarray:
+        """A sample with its isolated components missing (NaN)."""
+        iso = self.isolated.get(sensor)
+        if iso is None or not iso.any():
+            return value
+        value = np.array(value, dtype=float)
+        value[iso] = np.nan
+        return value
+
+    # ------------------------------------------------------------------ snapshots
+    def save(self, k: int) -> None:
+        """Keep the filters' state after step ``k`` (every fifth step)."""
+        if k % 5 == 0:
+            self._snaps.append((k, {name: f.snapshot() for name, f in self.filters.items() if f is not None}))
+
+    def _restore_before(self, k_onset: int) -> int:
+        """Restore the latest state saved at or before step ``k_onset``; returns its step."""
+        for k, snaps in reversed(self._snaps):
+            if k <= k_onset:
+                for name, snap in snaps.items():
+                    self.filters[name].restore(snap)
+                while self._snaps and self._snaps[-1][0] > k:
+                    self._snaps.pop()
+                return k
+        k, snaps = self._snaps[0]
+        for name, snap in snaps.items():
+            self.filters[name].restore(snap)
+        return k
+
+    # ------------------------------------------------------------------ detection
+    def observe(self, t: float, sensor: str, res, channels) -> list:
+        """Feed one update's innovations (``channels``: the components it used); returns the alarms."""
+        if res is None:
+            return []
+        s = np.sqrt(np.maximum(np.diag(res.S), 1e-300))
+        z = np.asarray(res.innovation) / s
+        flag = self.validity.update(sensor, t, res.nis, len(z))
+        if flag is not None:
+            self.flags.append((flag.time, f"{sensor} model inconsistent from {flag.since:.1f} s "
+                                           f"(windowed NIS {flag.side})"))
+        return [(sensor, a) for a in self.detectors[sensor].update(t, z, channels)]
+
+    def handle(self, sensor: str, alarm, t_grid) -> int:
+        """Act on an alarm (see the module docstring); returns the step to re-process from."""
+        p = self.policy
+        sig = float(self.sigmas[sensor][alarm.component])
+        size = alarm.shift * sig
+        key = (sensor, alarm.component)
+        repeat = key in self._reopened and alarm.time - self._reopened[key] <= p.isolation_window
+        if sensor == "encoders" or (sensor == "accelerometer" and repeat):
+            if sensor == "accelerometer":
+                self.isolated[sensor][:] = True
+            else:
+                self.isolated[sensor][alarm.component] = True
+            action = "isolated"
+        elif sensor == "gyro" and repeat:
+            self.flags.append((alarm.time, f"gyro axis {_AXES[alarm.component]} inconsistent after its bias was "
+                                           f"re-opened at {self._reopened[key]:.1f} s"))
+            action = "flagged"
+        else:
+            action = "bias re-opened"
+        k_onset = max(int(np.searchsorted(t_grid, alarm.onset)) - 1, 0)
+        k0 = self._restore_before(k_onset)
+        if action == "bias re-opened":
+            self._reopen(sensor, alarm, size)
+            self._reopened[key] = alarm.time
+        self.detections.append(Detection(alarm.time, alarm.onset, sensor, alarm.component, size, action))
+        for det in self.detectors.values():
+            det.reset()
+        return k0
+
+    def _reopen(self, sensor: str, alarm, size: float) -> None:
+        axis = alarm.component
+        if sensor == "star_tracker":  # an attitude drifting from the onset: a gyro bias step of that rate
+            rate = abs(size) / max(alarm.time - alarm.onset, self.dt)
+            sigma = max(2.0 * rate, DEG_PER_HOUR)
+            for f in self.filters.values():
+                if f is not None:
+                    f.reopen_bias("gyro", axis, sigma)
+            return
+        sigma = 2.0 * abs(size)
+        if sensor == "gyro":
+            sigma = max(sigma, DEG_PER_HOUR)
+        self.filters["plant"].reopen_bias(sensor, axis, sigma)
+        if sensor == "gyro" and self.filters.get("attitude") is not None:
+            self.filters["attitude"].reopen_bias("gyro", axis, sigma)
