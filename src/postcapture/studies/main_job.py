@@ -176,7 +176,7 @@ def _run_case_unguarded(plan: RunPlan, case: str, sensors, q0_true, dq0, progres
 
 def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
     """The recommended dual or joint scheme (:mod:`postcapture.estimation.schemes`)."""
-    from postcapture.studies.robust import build_augmented
+    from postcapture.studies.robust import build_augmented, with_discretisation_bias
     from postcapture.estimation.mekf import MEKF
     from postcapture.estimation.schemes import run_dual_scheme, run_joint_scheme
 
@@ -185,13 +185,15 @@ def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
     panel_mass = sum(p.mass for p in plan.scenario.target.panels)
     if spec.scheme == "joint":
         filt = build_augmented(plan, model, q0, name=spec.name)
-        return run_joint_scheme(filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
-                                name=spec.name)
-    cfg = dual_config(spec, prof, plan.profile_name, tun, plan.scenario.n_arm, plan.initial_mass)
-    mekf = MEKF(cfg.mekf, q0, cfg.mekf_P0, t0=plan.t_grid[0])
-    filt = build_augmented(plan, model, q0, name=f"{spec.name}/parameters")
-    return run_dual_scheme(mekf, filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
-                           name=spec.name)
+        result = run_joint_scheme(filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
+                                  name=spec.name)
+    else:
+        cfg = dual_config(spec, prof, plan.profile_name, tun, plan.scenario.n_arm, plan.initial_mass)
+        mekf = MEKF(cfg.mekf, q0, cfg.mekf_P0, t0=plan.t_grid[0])
+        filt = build_augmented(plan, model, q0, name=f"{spec.name}/parameters")
+        result = run_dual_scheme(mekf, filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
+                                 name=spec.name)
+    return with_discretisation_bias(result, tun.discretisation_bias)
 
 
 STEADY_RATIO = 1.2

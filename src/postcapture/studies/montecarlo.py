@@ -57,11 +57,12 @@ def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
     seed = (plan.seed, int(r))
     if dispersed:
         truth = draw_truth(plan.scenario, seed)
-        noise = plan.tuning.model_noise
+        derived = plan.tuning
         plan = plan_run(plan.scenario, truth=truth, profile=plan.profile_name, duration=plan.duration,
                         cases=plan.cases, initial_mass_error=plan.initial_mass - plan.nominal_mass, seed=plan.seed,
                         plant=plan.plant, mapping=plan.mapping)
-        plan = dataclasses.replace(plan, tuning=dataclasses.replace(plan.tuning, model_noise=noise))
+        plan = dataclasses.replace(plan, tuning=dataclasses.replace(
+            plan.tuning, model_noise=derived.model_noise, discretisation_bias=derived.discretisation_bias))
         traj = simulate_truth(plan)
     else:
         traj = shared_truth

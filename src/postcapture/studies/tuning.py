@@ -67,6 +67,7 @@ class ResolvedTuning:
     model_process_variance: float
     mass_prior_sigma: float  # kg
     model_noise: float | dict | None  # None: derived from the declared truth discretisation (campaign.robust)
+    discretisation_bias: np.ndarray | None = None  # (n_p, n_t): derived with the model noise (studies.robust)
     gyro_scale_sigma: float = 0.0  # relative, per axis: the gyro calibration prior (0: no calibration states)
     gyro_misalignment_sigma: float = 0.0  # rad, per off-diagonal term
 
