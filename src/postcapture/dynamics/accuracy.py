@@ -48,6 +48,22 @@ def _run(system: System, q0, v0, method: str, h: float, sample_period: float, du
     return plant.simulate(q0, v0, 0.0, h, per, n, sample_period=sample_period)["q"]
 
 
+def _first_step(system: System, q0, v0, method: str, sample_period: float, max_halvings: int) -> float:
+    """``sample_period / 2^k`` for the smallest k at which an explicit method is stable (k = 0 if implicit)."""
+    from postcapture.dynamics.core import CompiledPlant
+    from postcapture.dynamics.stability import StepTooLargeError, stability_limit
+
+    limit, _ = stability_limit(CompiledPlant(system, method), q0, v0)
+    h = sample_period
+    for _ in range(max_halvings + 1):
+        if h <= limit:
+            return h
+        h /= 2
+    raise StepTooLargeError(f"step: {method} needs a step <= {limit:.4g} s on this model, below the "
+                            f"{max_halvings} halvings of the sample period {sample_period} s that choose_step tries: "
+                            "use an L-stable method (sdirk4)", step=h, limit=limit)
+
+
 def choose_step(
     system: System,
     q0,
@@ -89,12 +105,13 @@ def choose_step(
     if not tolerance > 0:
         raise ValueError(f"tolerance: expected a positive angle in rad, found {tolerance}")
     p = TABLEAUX[method].order
+    h_first = _first_step(system, q0, v0, method, sample_period, max_halvings)
     window = min(pilot, duration)
     window = max(sample_period, round(window / sample_period) * sample_period)
     off = system.nq - system.nv
     newton = newton_for(tolerance)
-    coarse = _run(system, q0, v0, method, sample_period, sample_period, window, newton)
-    h = sample_period
+    coarse = _run(system, q0, v0, method, h_first, sample_period, window, newton)
+    h = h_first
     for _ in range(max_halvings):
         h /= 2
         fine = _run(system, q0, v0, method, h, sample_period, window, newton)
