@@ -314,7 +314,7 @@ def cmd_bench(args) -> int:
           f"{result['predict_ms_n50']:.2f} ms (N = 50)")
     print(f"  core compile {result['compile_s']:.1f} s; main job (warm) {result.get('main_job_s', float('nan')):.1f} s")
     m = result["machine"]
-    _echo(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, Pinocchio {m['pinocchio']}")
+    _echo(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, {m['compiler']}")
     return 0
 
 

@@ -76,7 +76,7 @@ def compiler() -> str:
     if cc:
         found = shutil.which(cc)
         if not found:
-            raise CompileError(f"CC={cc!r} names no program on the PATH: set CC to a C99 compiler (e.g. CC=gcc) "
+            raise CompileError(f"CC={cc!r} names no C compiler on the PATH: set CC to a C99 compiler (e.g. CC=gcc) "
                                "or unset it")
         return found
     for cand in ("gcc", "cc"):

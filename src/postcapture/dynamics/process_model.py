@@ -13,7 +13,7 @@ import numpy as np
 from postcapture.core.prediction import Prediction
 from postcapture.core.rotations import quat_from_pinocchio
 from postcapture.dynamics.core import CompiledPlant
-from postcapture.dynamics.parameters import dmass_direction, with_target_mass
+from postcapture.dynamics.parameters import check_parameters, dmass_direction, with_target_mass
 from postcapture.dynamics.system import System
 
 __all__ = ["NativeProcessModel"]
@@ -80,8 +80,8 @@ class NativeProcessModel:
 
     def set_params(self, p) -> None:
         """Set the model's parameter vector (the filter's estimate of the truth's); refused with a
-        DomainError (the core's EngineArgumentError) when not physical."""
-        self.plant.set_params(p)
+        DomainError naming the problem when not physical (checked again by the core)."""
+        self.plant.set_params(check_parameters(self.param_names, p, self._description.layout.has_target))
 
     def update_params(self, values: dict) -> None:
         """Set some parameters by name (``{"arm.stiffness_scale": 0.9}``), the others unchanged."""

@@ -83,10 +83,10 @@ def stability_limit(plant, q, v, tableau=None) -> tuple[float, complex]:
         return float("inf"), complex("nan")
     lam = np.linalg.eigvals(linear_state_matrix(plant, q, v))
     scale = max(1.0, float(np.abs(lam).max()))
+    lam = np.minimum(lam.real, 0.0) + 1j * lam.imag  # growing physical modes (a tumble) are not the method's
     lam = lam[np.abs(lam) > 1e-9 * scale]
     if not lam.size:
         return float("inf"), complex("nan")
-    lam = np.minimum(lam.real, 0.0) + 1j * lam.imag  # on the imaginary axis, not beyond it
     limits = _ray_limits(_polynomial(tableau), lam) / np.abs(lam)
     k = int(np.argmin(limits))
     return float(limits[k]), complex(lam[k])

@@ -57,6 +57,7 @@ typedef struct {
 typedef struct {
     pc_fmu_state_t c;
     pc_model_t* m;
+    pc_data_t* d;
     char* name;
     fmi2CallbackFunctions cb;
     int logging, out_valid;
@@ -129,8 +130,8 @@ static void defaults(pc_fmu_t* F) {
 }
 
 static void push_settings(pc_fmu_t* F) {
-    if (PC_NP) pc_set_params(F->m, F->c.p);
-    pc_set_input_offset(F->m, F->c.u);
+    if (PC_NP) pc_set_params(F->m, F->d, F->c.p);
+    pc_set_input_offset(F->m, F->d, F->c.u);
 }
 
 /* ------------------------------------------------------------------------------------ outputs */
@@ -141,7 +142,7 @@ static int update_outputs(pc_fmu_t* F) {
     int i, k = 0, off = NQ - NV;
     if (F->out_valid) return 0;
     push_settings(F);
-    if (pc_sample(F->m, q, v, F->c.time, F->ddq, panels, mech)) return 1;
+    if (pc_sample(F->m, F->d, q, v, F->c.time, F->ddq, panels, mech)) return 1;
     /* y: q_BN (w >= 0) 4, omega 3, r 3, accel 3, arm q, dq, ddq, panels (tip 3, torsion) */
     {
         double s = q[6] < 0.0 ? -1.0 : 1.0;
@@ -192,6 +193,7 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
                                           fmi2String resourceLocation, const fmi2CallbackFunctions* functions,
                                           fmi2Boolean visible, fmi2Boolean loggingOn) {
     pc_fmu_t* F;
+    char err[512] = "";
     (void)resourceLocation; (void)visible;
     if (!functions || !instanceName) return NULL;
     if (fmuType != fmi2CoSimulation) {
@@ -210,13 +212,15 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     F = (pc_fmu_t*)calloc(1, sizeof(pc_fmu_t));
     if (!F) return NULL;
     F->name = (char*)malloc(strlen(instanceName) + 1);
-    F->m = pc_create(PC_IB, PC_DB, sizeof PC_IB / sizeof PC_IB[0], sizeof PC_DB / sizeof PC_DB[0]);
-    if (!F->name || !F->m ||
-        pc_set_tableau(F->m, PC_STAGES, &PC_TAB_A[0][0], PC_TAB_B, PC_TAB_C)) {
+    F->m = pc_model_create(PC_IB, PC_DB, sizeof PC_IB / sizeof PC_IB[0], sizeof PC_DB / sizeof PC_DB[0], PC_STAGES,
+                           &PC_TAB_A[0][0], PC_TAB_B, PC_TAB_C, err, sizeof err);
+    F->d = F->m ? pc_data_create(F->m) : NULL;
+    if (!F->name || !F->m || !F->d) {
         if (functions->logger)
             functions->logger(functions->componentEnvironment, instanceName, fmi2Error, "logStatusError",
-                              "fmi2Instantiate: the plant could not be created (memory or model data)");
-        if (F->m) pc_destroy(F->m);
+                              "fmi2Instantiate: the plant could not be created: %s", F->m ? "out of memory" : err);
+        pc_data_destroy(F->d);
+        pc_model_destroy(F->m);
         free(F->name);
         free(F);
         return NULL;
@@ -232,7 +236,8 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
 FMI2_Export void fmi2FreeInstance(fmi2Component c) {
     pc_fmu_t* F = (pc_fmu_t*)c;
     if (!F) return;
-    pc_destroy(F->m);
+    pc_data_destroy(F->d);
+    pc_model_destroy(F->m);
     free(F->name);
     free(F);
 }
@@ -282,10 +287,10 @@ FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[
         fmi2ValueReference r = vr[k];
         if (r < PC_VR_DX) value[k] = F->c.x[r - PC_VR_X];
         else if (r < PC_VR_Y) {
-            if (update_outputs(F)) return fail(F, "fmi2GetReal", "output evaluation failed: %s", pc_error_message(F->m));
+            if (update_outputs(F)) return fail(F, "fmi2GetReal", "output evaluation failed: %s", pc_error_message(F->d));
             value[k] = F->xdot[r - PC_VR_DX];
         } else if (r < PC_VR_P) {
-            if (update_outputs(F)) return fail(F, "fmi2GetReal", "output evaluation failed: %s", pc_error_message(F->m));
+            if (update_outputs(F)) return fail(F, "fmi2GetReal", "output evaluation failed: %s", pc_error_message(F->d));
             value[k] = F->y[r - PC_VR_Y];
         } else if (r == PC_VR_P) value[k] = (PC_HAS_TARGET ? F->c.p[0] : 0.0) + PC_TARGET_PANEL_MASS;
         else if (r < PC_VR_U) value[k] = F->c.p[r - PC_VR_P - 1];
@@ -352,9 +357,9 @@ FMI2_Export fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[
         else if (r == PC_VR_JREQ) next.jreq = x;
         else return fail(F, "fmi2SetReal", "%s is not settable (an output or an unknown value reference)", vr_name(r));
     }
-    if (PC_NP && memcmp(next.p, F->c.p, sizeof next.p) != 0 && pc_set_params(F->m, next.p)) {
-        pc_set_params(F->m, F->c.p);
-        return fail(F, "fmi2SetReal", "parameters refused: %s", pc_error_message(F->m));
+    if (PC_NP && memcmp(next.p, F->c.p, sizeof next.p) != 0 && pc_set_params(F->m, F->d, next.p)) {
+        pc_set_params(F->m, F->d, F->c.p);
+        return fail(F, "fmi2SetReal", "parameters refused: %s", pc_error_message(F->d));
     }
     F->c = next;
     F->out_valid = 0;
@@ -386,7 +391,7 @@ FMI2_Export fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
     pc_fmu_t* F = (pc_fmu_t*)c;
     if (!state) return fail(F, "fmi2SetFMUstate", "null state");
     memcpy(&F->c, state, sizeof(pc_fmu_state_t));
-    if (PC_NP) pc_set_params(F->m, F->c.p);
+    if (PC_NP) pc_set_params(F->m, F->d, F->c.p);
     F->out_valid = 0;
     return fmi2OK;
 }
@@ -444,8 +449,8 @@ static int directional(pc_fmu_t* F, const double* dx, const double* du, double* 
     Av = Aq + NV * NV; Au = Av + NV * NV;
     F->out_valid = 0; /* the core's world placements must be this state's */
     if (update_outputs(F)) { free(Aq); return 1; }
-    pc_inputs(F->m, F->c.time, 0, u);
-    if (pc_derivatives(F->m, q, v, u, NULL, Aq, Av, Au, NULL)) { free(Aq); return 1; }
+    pc_inputs(F->m, F->d, F->c.time, 0, u);
+    if (pc_derivatives(F->m, F->d, q, v, u, NULL, Aq, Av, Au, NULL)) { free(Aq); return 1; }
     for (i = 0; i < NV; i++) {
         double s = 0.0;
         for (j = 6; j < NV; j++) s += Aq[i * NV + j] * dx[j + off]; /* no gravity: the root pose does not enter */
@@ -502,8 +507,8 @@ static int directional(pc_fmu_t* F, const double* dx, const double* du, double* 
     for (i = 0; i < PC_NARM; i++) dy[k++] = i < PC_NARM_V ? dx[PC_ARM_V[i] + off] : 0.0;
     for (i = 0; i < PC_NARM; i++) dy[k++] = i < PC_NARM_V ? dv[PC_ARM_V[i]] : 0.0;
     for (i = 0; i < PC_NARM; i++) dy[k++] = i < PC_NARM_V ? dd[PC_ARM_V[i]] : 0.0;
-    pc_panel_jacobian(F->m, Jp);
-    pc_panel_quat_jacobian(F->m, q, Jq);
+    pc_panel_jacobian(F->m, F->d, q, Jp);
+    pc_panel_quat_jacobian(F->m, F->d, q, Jq);
     for (i = 0; i < 4 * PC_NPANELS; i++) {
         double s = 0.0;
         for (j = 6; j < NV; j++) s += Jp[i * NV + j] * dx[j + off];
@@ -534,7 +539,7 @@ FMI2_Export fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2V
         else return fail(F, "fmi2GetDirectionalDerivative", "a known must be a state or an input (force, torque, joint)");
     }
     if (directional(F, dx, du, dxdot, dy))
-        return fail(F, "fmi2GetDirectionalDerivative", "evaluation failed: %s", pc_error_message(F->m));
+        return fail(F, "fmi2GetDirectionalDerivative", "evaluation failed: %s", pc_error_message(F->d));
     for (k = 0; k < nUnknown; k++) {
         fmi2ValueReference r = vUnknown_ref[k];
         if (r < PC_VR_DX) dvUnknown[k] = dx[r - PC_VR_X];
@@ -605,10 +610,10 @@ FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
             if (!Fx) return fail(F, "fmi2DoStep", "out of memory");
             G = Fx + NT * NT; Hm = G + NT * (PC_NP + 1); Hp = Hm + PC_NZ * NT;
         }
-        if (pc_predict(F->m, x, x + NQ, t, PC_STEP, (int)n, want_jac, z, Fx, NULL, G, Hm, NULL, Hp)) {
+        if (pc_predict(F->m, F->d, x, x + NQ, t, PC_STEP, (int)n, want_jac, z, Fx, NULL, G, Hm, NULL, Hp)) {
             free(Fx);
             F->c.mode = MODE_ERROR;
-            return fail(F, "fmi2DoStep", "the step from t = %.17g s failed: %s", t, pc_error_message(F->m));
+            return fail(F, "fmi2DoStep", "the step from t = %.17g s failed: %s", t, pc_error_message(F->d));
         }
         if (want_jac) {
             double* J = F->c.jac;
@@ -634,9 +639,9 @@ FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
         }
         free(Fx);
 #else
-        if (pc_predict(F->m, x, x + NQ, t, PC_STEP, (int)n, 0, z, NULL, NULL, NULL, NULL, NULL, NULL)) {
+        if (pc_predict(F->m, F->d, x, x + NQ, t, PC_STEP, (int)n, 0, z, NULL, NULL, NULL, NULL, NULL, NULL)) {
             F->c.mode = MODE_ERROR;
-            return fail(F, "fmi2DoStep", "the step from t = %.17g s failed: %s", t, pc_error_message(F->m));
+            return fail(F, "fmi2DoStep", "the step from t = %.17g s failed: %s", t, pc_error_message(F->d));
         }
 #endif
     }

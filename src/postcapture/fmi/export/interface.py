@@ -85,10 +85,8 @@ class Interface:
 
 def _coordinate_labels(plant: ExportPlant):
     """Description and units of each configuration and velocity coordinate."""
-    model = plant.model
     q_lab, q_unit, v_lab, v_unit = [""] * plant.nq, [""] * plant.nq, [""] * plant.nv, [""] * plant.nv
-    for _i, _parent, kind, iq, iv, _R, _p in plant.joints:
-        name = model.names[_i]
+    for name, _parent, kind, iq, iv, _R, _p in plant.joints:
         if kind < 0:
             for k, c in enumerate("xyz"):
                 q_lab[iq + k], q_unit[iq + k] = f"{name}: position {c} in N", "m"
