@@ -257,15 +257,19 @@ class _PinBuilder:
         self.model = pin.Model()
         self.model.gravity = pin.Motion.Zero()
         self.rest: dict[int, float] = {}
+        self.body_frame: dict[int, int] = {0: 0}  # joint id -> its body frame (the universe's is 0)
 
     def joint(self, parent, jmodel, placement, name, inertia=None) -> int:
-        jid = self.model.addJoint(parent, jmodel, placement, name)
+        m = self.model
+        jid = m.addJoint(parent, jmodel, placement, name)
+        fid = m.addJointFrame(jid, self.body_frame.get(parent, 0))
         if inertia is not None:
-            self.model.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
+            m.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
+        self.body_frame[jid] = m.addBodyFrame(name + "_body", jid, pin.SE3.Identity(), fid)
         return jid
 
     def frame(self, name, joint, placement) -> None:
-        self.model.addFrame(pin.Frame(name, joint, 0, placement, pin.FrameType.OP_FRAME))
+        self.model.addFrame(pin.Frame(name, joint, self.body_frame[joint], placement, pin.FrameType.OP_FRAME))
 
     def panel(self, host, mount, panel) -> None:
         from postcapture.dynamics.bodies import segment_properties
