@@ -75,12 +75,12 @@ int pc_derivatives(const pc_model_t* m, pc_data_t* d, const double* q, const dou
 }
 
 /* out (nr x ncol) row i = -(or +) mr . X for the rows of M^-1 in mr */
-static void row_times(const double* mr, const double* X, int nv, int ncol, double sign, double* out) {
+static void row_times(const double* mr, const double* restrict X, int nv, int ncol, double sign, double* restrict out) {
     int c, k;
     for (c = 0; c < ncol; c++) out[c] = 0.0;
     for (k = 0; k < nv; k++) {
         double a = sign * mr[k];
-        const double* Xk = X + (size_t)k * ncol;
+        const double* restrict Xk = X + (size_t)k * ncol;
         if (a != 0.0)
             for (c = 0; c < ncol; c++) out[c] += a * Xk[c];
     }

@@ -40,9 +40,15 @@ static int sens_alloc(const pc_model_t* m, pc_data_t* d, sens_t* W, int with_inp
     return PC_OK;
 }
 
+/* y += a x over n entries (distinct arrays) */
+static void axpy(double* restrict y, const double* restrict x, double a, int n) {
+    int c;
+    for (c = 0; c < n; c++) y[c] += a * x[c];
+}
+
 /* R0 = base + h sum_j a_ij dK_j; returns 1 when R0 is the base alone */
 static int stage_base(const pc_model_t* m, sens_t* W, int i, double h) {
-    int j, k, r, base_only = 1;
+    int j, r, base_only = 1;
     size_t n = (size_t)W->nt * W->nc;
     memset(W->R0, 0, n * sizeof(double));
     for (r = 0; r < W->nv; r++) W->R0[(size_t)(W->nv + r) * W->nc + W->nv + r] = 1.0;
@@ -51,7 +57,7 @@ static int stage_base(const pc_model_t* m, sens_t* W, int i, double h) {
         const double* dKj = W->dK + (size_t)j * n;
         if (ha == 0.0) continue;
         base_only = 0;
-        for (k = 0; k < (int)n; k++) W->R0[k] += ha * dKj[k];
+        axpy(W->R0, dKj, ha, (int)n);
     }
     return base_only;
 }
@@ -97,15 +103,11 @@ static void implicit_rhs(const pc_model_t* m, sens_t* W, double hg, int base_onl
         }
         for (k = 0; k < nv; k++) {
             double a = M[(size_t)r * nv + k];
-            const double* Rk = R0 + (size_t)(nv + k) * nc;
-            if (a != 0.0)
-                for (c = 0; c < nc; c++) Wr[c] += a * Rk[c];
+            if (a != 0.0) axpy(Wr, R0 + (size_t)(nv + k) * nc, a, nc);
         }
         for (k = rf; k < nv; k++) {
             double a = -hg * Cq[(size_t)r * nv + k];
-            const double* Rk = R0 + (size_t)k * nc;
-            if (a != 0.0)
-                for (c = 0; c < nc; c++) Wr[c] += a * Rk[c];
+            if (a != 0.0) axpy(Wr, R0 + (size_t)k * nc, a, nc);
         }
     }
 }
@@ -146,7 +148,10 @@ static int implicit_sensitivity(const pc_model_t* m, pc_data_t* d, sens_t* W, do
         return PC_ERR_SINGULAR;
     }
     memcpy(W->dZ + (size_t)nv * nc, W->W, (size_t)nv * nc * sizeof(double));
-    for (k = 0; k < nt * nc; k++) dK[k] = (W->dZ[k] - W->R0[k]) / hg;
+    {
+        const double inv = 1.0 / hg;
+        for (k = 0; k < nt * nc; k++) dK[k] = (W->dZ[k] - W->R0[k]) * inv;
+    }
     return PC_OK;
 }
 

@@ -57,6 +57,12 @@ int pc_lu_factor(double* A, int* piv, int n) {
     return 0;
 }
 
+/* row_i -= f row_k over m entries (distinct rows: restrict lets the compiler vectorize) */
+static void axpy_row(double* restrict bi, const double* restrict bk, double f, int m) {
+    int j;
+    for (j = 0; j < m; j++) bi[j] -= f * bk[j];
+}
+
 /* Solve in place for B (n x m, row-major, leading dimension ld). */
 void pc_lu_solve(const double* LU, const int* piv, int n, double* B, int m, int ld) {
     int i, j, k;
@@ -66,15 +72,14 @@ void pc_lu_solve(const double* LU, const int* piv, int n, double* B, int m, int 
     for (i = 1; i < n; i++)
         for (k = 0; k < i; k++) {
             double f = LU[i * n + k];
-            if (f != 0.0) for (j = 0; j < m; j++) B[i * ld + j] -= f * B[k * ld + j];
+            if (f != 0.0) axpy_row(B + (size_t)i * ld, B + (size_t)k * ld, f, m);
         }
     for (i = n - 1; i >= 0; i--) {
         double inv = 1.0 / LU[i * n + i];
         for (k = i + 1; k < n; k++) {
             double f = LU[i * n + k];
-            if (f != 0.0) for (j = 0; j < m; j++) B[i * ld + j] -= f * B[k * ld + j];
+            if (f != 0.0) axpy_row(B + (size_t)i * ld, B + (size_t)k * ld, f, m);
         }
         for (j = 0; j < m; j++) B[i * ld + j] *= inv;
     }
 }
-

@@ -27,7 +27,7 @@ void pc_spring_force(const pc_model_t* m, const pc_data_t* d, const double* q, c
     memset(tau, 0, (size_t)m->nv * sizeof(double));
     for (i = 0; i < m->ns; i++) {
         const pc_spring_t* S = &m->springs[i];
-        double defl, rate, f;
+        double defl = 0.0, rate = 0.0, f;
         stretch(m, S, q, v, &defl, &rate);
         f = -d->k[i] * defl - d->dmp[i] * rate;
         for (x = 0; x < 2; x++)
@@ -59,7 +59,7 @@ void pc_spring_param_forces(const pc_model_t* m, const double* q, const double* 
     int i, r, np = m->np;
     for (i = 0; i < m->ns; i++) {
         const pc_spring_t* S = &m->springs[i];
-        double defl, rate;
+        double defl = 0.0, rate = 0.0;
         stretch(m, S, q, v, &defl, &rate);
         for (r = 0; r < 2; r++) {
             if (S->v[r] < 0) continue;

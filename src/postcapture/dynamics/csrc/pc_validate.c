@@ -91,24 +91,29 @@ static int check_springs(const pc_model_t* m, char* err, size_t n) {
     return PC_OK;
 }
 
+static int check_profile(const pc_model_t* m, int i, char* err, size_t n) {
+    const pc_profile_t* P = &m->prof[i];
+    int k;
+    if (P->kind < PC_PROFILE_STEP || P->kind > PC_PROFILE_TABLE) return bad(err, n, "profile %d: kind %d, expected 0 to 3", i, P->kind);
+    if (P->channel < 0 || P->channel >= m->nu) return bad(err, n, "profile %d: channel %d, expected 0 to %d", i, P->channel, m->nu - 1);
+    if (!(fabs(P->start) < INFINITY) || P->stop != P->stop || !finite_all(&P->a, 7))
+        return bad(err, n, "profile %d: numbers not finite", i);
+    if (P->kind != PC_PROFILE_TABLE) return PC_OK;
+    if (P->n_table < 2 || P->table < 0 || P->table > m->ntable - P->n_table)
+        return bad(err, n, "profile %d: table [%d, +%d) outside the %d table entries", i, P->table, P->n_table, m->ntable);
+    for (k = P->table + 1; k < P->table + P->n_table; k++)
+        if (!(m->table_t[k] > m->table_t[k - 1])) return bad(err, n, "profile %d: table times not increasing", i);
+    return PC_OK;
+}
+
 static int check_inputs(const pc_model_t* m, char* err, size_t n) {
-    int i, k;
+    int i, e;
     for (i = 0; i < m->nu; i++)
         if (m->u_to_v[i] < -1 || m->u_to_v[i] >= m->nv) return bad(err, n, "input %d: velocity index %d, expected -1 to %d", i, m->u_to_v[i], m->nv - 1);
     if (m->custom_b && !finite_all(m->B, m->nv * m->nu)) return bad(err, n, "input matrix: not finite");
-    for (i = 0; i < m->nprof; i++) {
-        const pc_profile_t* P = &m->prof[i];
-        if (P->kind < PC_PROFILE_STEP || P->kind > PC_PROFILE_TABLE) return bad(err, n, "profile %d: kind %d, expected 0 to 3", i, P->kind);
-        if (P->channel < 0 || P->channel >= m->nu) return bad(err, n, "profile %d: channel %d, expected 0 to %d", i, P->channel, m->nu - 1);
-        if (P->kind == PC_PROFILE_TABLE && (P->n_table < 2 || P->table < 0 || P->table > m->ntable - P->n_table))
-            return bad(err, n, "profile %d: table [%d, +%d) outside the %d table entries", i, P->table, P->n_table, m->ntable);
-        if (!(fabs(P->start) < INFINITY) || P->stop != P->stop || !finite_all(&P->a, 7))
-            return bad(err, n, "profile %d: numbers not finite", i);
-        if (P->kind == PC_PROFILE_TABLE)
-            for (k = P->table + 1; k < P->table + P->n_table; k++)
-                if (!(m->table_t[k] > m->table_t[k - 1])) return bad(err, n, "profile %d: table times not increasing", i);
-    }
     if (!finite_all(m->table_t, m->ntable) || !finite_all(m->table_v, m->ntable)) return bad(err, n, "tables: not finite");
+    for (i = 0; i < m->nprof; i++)
+        if ((e = check_profile(m, i, err, n))) return e;
     return PC_OK;
 }
 
