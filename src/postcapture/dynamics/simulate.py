@@ -177,9 +177,12 @@ def simulate(
     sim = scenario.simulation
     system = build_system(scenario, variant, panel_segments=panel_segments, damping=damping,
                           excitation=excitation).with_updates(parameters or {})
-    q0, v0 = initial_state(system)
     duration = sim.duration if duration is None else duration
     sample_period = sim.sample_period if sample_period is None else sample_period
+    # refused before the initial state is solved (a huge model's relaxation alone can take long)
+    check_resources(estimate_simulation(nv=system.nv, duration=duration, step=sim.step if step is None else step,
+                                        sample_period=sample_period, integrator=integrator or sim.integrator))
+    q0, v0 = initial_state(system)
     newton = None
     if step is None and integrator is None and sim.tolerance is not None:
         integrator, newton = sim.truth_integrator, newton_for(sim.tolerance)
