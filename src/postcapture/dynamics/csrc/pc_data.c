@@ -51,63 +51,59 @@ size_t pc_arena_need(const pc_model_t* m) {
 }
 
 /* ------------------------------------------------------------------------------------ life cycle */
-typedef struct {
-    char* base;
-    size_t used;
-} carve_t;
-
-static void* carve(carve_t* c, size_t n, size_t size) {
+/* Reserve n items of size bytes in one block (aligned to 16); with base NULL only counts the size. */
+void* pc_carve(pc_carve_t* c, size_t n, size_t size) {
     size_t start = (c->used + 15) & ~(size_t)15;
     c->used = start + (n ? n : 1) * size;
     return c->base ? c->base + start : NULL;
 }
 
-static void factor_layout(pc_factor_t* F, carve_t* c, size_t nj) {
-    F->R = (double*)carve(c, nj * 9, sizeof(double));
-    F->p = (double*)carve(c, nj * 3, sizeof(double));
-    F->U = (double*)carve(c, nj * 6, sizeof(double));
-    F->Dinv = (double*)carve(c, nj, sizeof(double));
-    F->cs = (double*)carve(c, nj * 2, sizeof(double));
+static void factor_layout(pc_factor_t* F, pc_carve_t* c, size_t nj) {
+    F->R = (double*)pc_carve(c, nj * 9, sizeof(double));
+    F->p = (double*)pc_carve(c, nj * 3, sizeof(double));
+    F->U = (double*)pc_carve(c, nj * 6, sizeof(double));
+    F->Dinv = (double*)pc_carve(c, nj, sizeof(double));
+    F->cs = (double*)pc_carve(c, nj * 2, sizeof(double));
 }
 
-static void layout_data(const pc_model_t* m, pc_data_t* d, carve_t* c) {
+static void layout_data(const pc_model_t* m, pc_data_t* d, pc_carve_t* c) {
     size_t nj = (size_t)m->nj, nv = (size_t)m->nv;
     int i;
-    d->params = (double*)carve(c, (size_t)m->np, sizeof(double));
-    d->pi = (double*)carve(c, nj * 10, sizeof(double));
-    d->k = (double*)carve(c, (size_t)m->ns, sizeof(double));
-    d->dmp = (double*)carve(c, (size_t)m->ns, sizeof(double));
-    d->u_extra = (double*)carve(c, (size_t)m->nu, sizeof(double));
-    d->prev_V = (double*)carve(c, PC_MAX_STAGES * nv, sizeof(double));
-    d->prev_v = (double*)carve(c, nv, sizeof(double));
-    d->prev2_V = (double*)carve(c, PC_MAX_STAGES * nv, sizeof(double));
-    d->prev2_v = (double*)carve(c, nv, sizeof(double));
-    d->Rl = (double*)carve(c, nj * 9, sizeof(double));
-    d->pl = (double*)carve(c, nj * 3, sizeof(double));
-    d->csl = (double*)carve(c, nj * 2, sizeof(double));
-    d->Ro = (double*)carve(c, nj * 9, sizeof(double));
-    d->po = (double*)carve(c, nj * 3, sizeof(double));
-    d->vj = (double*)carve(c, nj * 6, sizeof(double));
-    d->aj = (double*)carve(c, nj * 6, sizeof(double));
-    d->cj = (double*)carve(c, nj * 6, sizeof(double));
-    d->fj = (double*)carve(c, nj * 6, sizeof(double));
-    d->IA = (double*)carve(c, nj * 36, sizeof(double));
-    d->Uj = (double*)carve(c, nj * 6, sizeof(double));
-    d->Dj = (double*)carve(c, nj, sizeof(double));
-    d->uj = (double*)carve(c, nj, sizeof(double));
-    for (i = 0; i < 8; i++) d->tmp_nv[i] = (double*)carve(c, nv, sizeof(double));
-    for (i = 0; i < 2; i++) d->tmp_nq[i] = (double*)carve(c, (size_t)m->nq, sizeof(double));
+    d->params = (double*)pc_carve(c, (size_t)m->np, sizeof(double));
+    d->pi = (double*)pc_carve(c, nj * 10, sizeof(double));
+    d->k = (double*)pc_carve(c, (size_t)m->ns, sizeof(double));
+    d->dmp = (double*)pc_carve(c, (size_t)m->ns, sizeof(double));
+    d->u_extra = (double*)pc_carve(c, (size_t)m->nu, sizeof(double));
+    d->prev_V = (double*)pc_carve(c, PC_MAX_STAGES * nv, sizeof(double));
+    d->prev_v = (double*)pc_carve(c, nv, sizeof(double));
+    d->prev2_V = (double*)pc_carve(c, PC_MAX_STAGES * nv, sizeof(double));
+    d->prev2_v = (double*)pc_carve(c, nv, sizeof(double));
+    d->Rl = (double*)pc_carve(c, nj * 9, sizeof(double));
+    d->pl = (double*)pc_carve(c, nj * 3, sizeof(double));
+    d->csl = (double*)pc_carve(c, nj * 2, sizeof(double));
+    d->Ro = (double*)pc_carve(c, nj * 9, sizeof(double));
+    d->po = (double*)pc_carve(c, nj * 3, sizeof(double));
+    d->vj = (double*)pc_carve(c, nj * 6, sizeof(double));
+    d->aj = (double*)pc_carve(c, nj * 6, sizeof(double));
+    d->cj = (double*)pc_carve(c, nj * 6, sizeof(double));
+    d->fj = (double*)pc_carve(c, nj * 6, sizeof(double));
+    d->IA = (double*)pc_carve(c, nj * 36, sizeof(double));
+    d->Uj = (double*)pc_carve(c, nj * 6, sizeof(double));
+    d->Dj = (double*)pc_carve(c, nj, sizeof(double));
+    d->uj = (double*)pc_carve(c, nj, sizeof(double));
+    for (i = 0; i < 8; i++) d->tmp_nv[i] = (double*)pc_carve(c, nv, sizeof(double));
+    for (i = 0; i < 2; i++) d->tmp_nq[i] = (double*)pc_carve(c, (size_t)m->nq, sizeof(double));
     factor_layout(&d->fac, c, nj);
     factor_layout(&d->fac2, c, nj);
-    d->dense = (double*)carve(c, nv * nv, sizeof(double));
-    d->dense2 = (double*)carve(c, nv * nv, sizeof(double));
-    d->piv = (int*)carve(c, nv, sizeof(int));
-    d->arena = (double*)carve(c, m->arena_size, sizeof(double));
+    d->dense = (double*)pc_carve(c, nv * nv, sizeof(double));
+    d->dense2 = (double*)pc_carve(c, nv * nv, sizeof(double));
+    d->piv = (int*)pc_carve(c, nv, sizeof(int));
+    d->arena = (double*)pc_carve(c, m->arena_size, sizeof(double));
 }
 
 pc_data_t* pc_data_create(const pc_model_t* m) {
     pc_data_t* d = (pc_data_t*)calloc(1, sizeof *d);
-    carve_t c = {NULL, 0};
+    pc_carve_t c = {NULL, 0};
     if (!d) return NULL;
     layout_data(m, d, &c);
     d->block = calloc(1, c.used);

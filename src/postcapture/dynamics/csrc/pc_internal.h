@@ -1,7 +1,8 @@
 /*
  * postcapture plant core (internal): the layout of the constant model and of one instance's data, and
  * the functions the stage files share. Which file owns what:
- *   pc_model.c            packed arrays -> model, pc_validate (every index and size), tableau
+ *   pc_model.c            packed arrays -> model, the tableau
+ *   pc_validate.c         pc_validate: every index and size of a model, before anything runs
  *   pc_data.c             data life cycle, the scratch arena, the error buffer, parameters, settings
  *   pc_inputs.c           excitation profiles and the input map (B u)
  *   pc_passive.c          springs and dampers: forces, their partials, energy, the Newton "armature"
@@ -149,6 +150,11 @@ typedef struct {
 } pc_stages_t;
 
 /* pc_data.c */
+typedef struct {
+    char* base;
+    size_t used;
+} pc_carve_t;
+void* pc_carve(pc_carve_t* c, size_t n, size_t size);
 void pc_set_error(pc_data_t* d, const char* fmt, ...);
 double* pc_arena_alloc(pc_data_t* d, size_t n);
 #define PC_ARENA_MARK(d) ((d)->arena_top)
@@ -157,7 +163,8 @@ size_t pc_arena_need(const pc_model_t* m);
 int pc_stages_alloc(const pc_model_t* m, pc_data_t* d, pc_stages_t* S);
 int pc_params_problem(const pc_model_t* m, const double* p, char* err, size_t n);
 
-/* pc_model.c */
+/* pc_model.c, pc_validate.c */
+int pc_model_error(char* err, size_t n, const char* fmt, ...);
 int pc_validate(const pc_model_t* m, char* err, size_t err_size);
 
 /* pc_inputs.c */

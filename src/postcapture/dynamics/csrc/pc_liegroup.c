@@ -180,20 +180,6 @@ void pc_dexpinv_apply(const double* xi, const double* V, double* out) {
     for (i = 0; i < 6; i++) out[i] = V[i] + 0.5 * a[i] + b[i] / 12.0;
 }
 
-static void ad6(const double* x, double* A) { /* ad_x: ad_x y = x cross y (twists), 6x6 */
-    double P[9], Rm[9];
-    int i, j;
-    skew3(x + 3, P);
-    skew3(x, Rm);
-    memset(A, 0, 36 * sizeof(double));
-    for (i = 0; i < 3; i++)
-        for (j = 0; j < 3; j++) {
-            A[6 * i + j] = P[3 * i + j];
-            A[6 * i + 3 + j] = Rm[3 * i + j];
-            A[6 * (3 + i) + 3 + j] = P[3 * i + j];
-        }
-}
-
 static void mm6(const double* A, const double* B, double* C) {
     int i, j, k;
     for (i = 0; i < 6; i++)
@@ -208,13 +194,13 @@ static void mm6(const double* A, const double* B, double* C) {
 void pc_dexpinv_mats(const double* xi, const double* V, double* G, double* Gx) {
     double A[36], A2[36], adV[36], adAV[36], AadV[36], AV[6];
     int i;
-    ad6(xi, A);
+    motion_cross_matrix(xi, A);
     mm6(A, A, A2);
     for (i = 0; i < 36; i++) G[i] = 0.5 * A[i] + A2[i] / 12.0;
     for (i = 0; i < 6; i++) G[6 * i + i] += 1.0;
-    ad6(V, adV);
+    motion_cross_matrix(V, adV);
     mv6(A, V, AV);
-    ad6(AV, adAV);
+    motion_cross_matrix(AV, adAV);
     mm6(A, adV, AadV);
     for (i = 0; i < 36; i++) Gx[i] = -0.5 * adV[i] - (adAV[i] + AadV[i]) / 12.0;
 }

@@ -26,7 +26,8 @@
 int pc_layout_version(void) { return PC_LAYOUT_VERSION; }
 const char* pc_build_id(void) { return PC_BUILD_ID; }
 
-static int say(char* err, size_t n, const char* fmt, ...) {
+/* Write a model's refusal into err (n bytes); returns PC_ERR_MODEL. */
+int pc_model_error(char* err, size_t n, const char* fmt, ...) {
     va_list ap;
     if (err && n) {
         va_start(ap, fmt);
@@ -37,31 +38,19 @@ static int say(char* err, size_t n, const char* fmt, ...) {
 }
 
 /* ------------------------------------------------------------------------------------ allocation */
-typedef struct {
-    char* base;
-    size_t used;
-} carve_t;
-
-/* Reserve n items of size bytes (aligned to 16); with base NULL only counts. */
-static void* carve(carve_t* c, size_t n, size_t size) {
-    size_t start = (c->used + 15) & ~(size_t)15;
-    c->used = start + (n ? n : 1) * size;
-    return c->base ? c->base + start : NULL;
-}
-
-static void layout_model(pc_model_t* m, carve_t* c) {
+static void layout_model(pc_model_t* m, pc_carve_t* c) {
     size_t nj = (size_t)m->nj;
-    m->joints = (pc_joint_t*)carve(c, nj, sizeof(pc_joint_t));
-    m->springs = (pc_spring_t*)carve(c, (size_t)m->ns, sizeof(pc_spring_t));
-    m->u_to_v = (int*)carve(c, (size_t)m->nu, sizeof(int));
-    m->B = (double*)carve(c, (size_t)m->nv * (size_t)m->nu, sizeof(double));
-    m->prof = (pc_profile_t*)carve(c, (size_t)m->nprof, sizeof(pc_profile_t));
-    m->table_t = (double*)carve(c, (size_t)m->ntable, sizeof(double));
-    m->table_v = (double*)carve(c, (size_t)m->ntable, sizeof(double));
-    m->panels = (pc_panel_t*)carve(c, (size_t)m->npanels, sizeof(pc_panel_t));
-    m->arm_v = (int*)carve(c, (size_t)m->n_arm_v, sizeof(int));
-    m->sub_end = (int*)carve(c, nj, sizeof(int));
-    m->p0 = (double*)carve(c, (size_t)m->np, sizeof(double));
+    m->joints = (pc_joint_t*)pc_carve(c, nj, sizeof(pc_joint_t));
+    m->springs = (pc_spring_t*)pc_carve(c, (size_t)m->ns, sizeof(pc_spring_t));
+    m->u_to_v = (int*)pc_carve(c, (size_t)m->nu, sizeof(int));
+    m->B = (double*)pc_carve(c, (size_t)m->nv * (size_t)m->nu, sizeof(double));
+    m->prof = (pc_profile_t*)pc_carve(c, (size_t)m->nprof, sizeof(pc_profile_t));
+    m->table_t = (double*)pc_carve(c, (size_t)m->ntable, sizeof(double));
+    m->table_v = (double*)pc_carve(c, (size_t)m->ntable, sizeof(double));
+    m->panels = (pc_panel_t*)pc_carve(c, (size_t)m->npanels, sizeof(pc_panel_t));
+    m->arm_v = (int*)pc_carve(c, (size_t)m->n_arm_v, sizeof(int));
+    m->sub_end = (int*)pc_carve(c, nj, sizeof(int));
+    m->p0 = (double*)pc_carve(c, (size_t)m->np, sizeof(double));
 }
 
 void pc_model_destroy(pc_model_t* m) {
@@ -74,18 +63,18 @@ void pc_model_destroy(pc_model_t* m) {
 static int read_header(pc_model_t* m, const int* ib, size_t n_ib, size_t n_db, char* err, size_t n) {
     size_t need_i, need_d;
     int k;
-    if (!ib || n_ib < PC_I_HEADER) return say(err, n, "packed model: %zu ints, fewer than the header's %d", n_ib, PC_I_HEADER);
+    if (!ib || n_ib < PC_I_HEADER) return pc_model_error(err, n, "packed model: %zu ints, fewer than the header's %d", n_ib, PC_I_HEADER);
     if (ib[PC_I_VERSION] != PC_LAYOUT_VERSION)
-        return say(err, n, "packed model: layout version %d, this core reads %d", ib[PC_I_VERSION], PC_LAYOUT_VERSION);
+        return pc_model_error(err, n, "packed model: layout version %d, this core reads %d", ib[PC_I_VERSION], PC_LAYOUT_VERSION);
     for (k = 1; k < PC_I_HEADER; k++)
         if ((ib[k] < 0 && k != PC_I_TARGET_JOINT) || ib[k] > PC_MAX_SIZE)
-            return say(err, n, "packed model: header entry %d is %d, expected 0 to %d", k, ib[k], PC_MAX_SIZE);
+            return pc_model_error(err, n, "packed model: header entry %d is %d, expected 0 to %d", k, ib[k], PC_MAX_SIZE);
     m->nq = ib[PC_I_NQ]; m->nv = ib[PC_I_NV]; m->nj = ib[PC_I_NJ]; m->nu = ib[PC_I_NU]; m->ns = ib[PC_I_NS];
     m->nprof = ib[PC_I_NPROF]; m->npanels = ib[PC_I_NFRAMES]; m->ntable = ib[PC_I_NTABLE];
     m->custom_b = ib[PC_I_CUSTOM_B]; m->n_arm = ib[PC_I_NARM]; m->n_arm_v = ib[PC_I_NARM_V];
     m->target_joint = ib[PC_I_TARGET_JOINT]; m->np = ib[PC_I_NP]; m->free_flyer = ib[PC_I_FREE_FLYER];
-    if (m->free_flyer > 1 || m->custom_b > 1) return say(err, n, "packed model: flags must be 0 or 1");
-    if (m->nv < 1 || m->nj < 1) return say(err, n, "packed model: expected at least one joint and one velocity");
+    if (m->free_flyer > 1 || m->custom_b > 1) return pc_model_error(err, n, "packed model: flags must be 0 or 1");
+    if (m->nv < 1 || m->nj < 1) return pc_model_error(err, n, "packed model: expected at least one joint and one velocity");
     m->n_root_v = m->free_flyer ? 6 : 0;
     m->n_root_q = m->free_flyer ? 7 : 0;
     m->nz = 3 + m->n_arm;
@@ -94,7 +83,7 @@ static int read_header(pc_model_t* m, const int* ib, size_t n_ib, size_t n_db, c
     need_d = 22 * (size_t)m->nj + 5 * (size_t)m->ns + (m->custom_b ? (size_t)m->nv * m->nu : 0) +
              9 * (size_t)m->nprof + 2 * (size_t)m->ntable + 16 * (size_t)m->npanels + 3 + 110 + (size_t)m->np;
     if (n_ib != need_i || n_db != need_d)
-        return say(err, n, "packed model: expected %zu ints and %zu doubles, found %zu and %zu", need_i, need_d, n_ib, n_db);
+        return pc_model_error(err, n, "packed model: expected %zu ints and %zu doubles, found %zu and %zu", need_i, need_d, n_ib, n_db);
     return PC_OK;
 }
 
@@ -158,17 +147,17 @@ static int read_tableau(pc_model_t* m, int s, const double* A, const double* b, 
     int i, j;
     pc_tableau_t* t = &m->tab;
     if (s < 1 || s > PC_MAX_STAGES || !A || !b || !c)
-        return say(err, n, "tableau: expected 1 to %d stages, found %d", PC_MAX_STAGES, s);
+        return pc_model_error(err, n, "tableau: expected 1 to %d stages, found %d", PC_MAX_STAGES, s);
     memset(t, 0, sizeof *t);
     t->s = s;
     for (i = 0; i < s; i++) {
         for (j = 0; j < s; j++) {
             double a = A[s * i + j];
-            if (!(fabs(a) < INFINITY)) return say(err, n, "tableau: A[%d][%d] is not finite", i, j);
-            if (j > i && a != 0.0) return say(err, n, "tableau: A must be lower triangular, A[%d][%d] = %g", i, j, a);
+            if (!(fabs(a) < INFINITY)) return pc_model_error(err, n, "tableau: A[%d][%d] is not finite", i, j);
+            if (j > i && a != 0.0) return pc_model_error(err, n, "tableau: A must be lower triangular, A[%d][%d] = %g", i, j, a);
             if (j <= i) t->A[i][j] = a;
         }
-        if (!(fabs(b[i]) < INFINITY) || !(fabs(c[i]) < INFINITY)) return say(err, n, "tableau: b[%d] or c[%d] is not finite", i, i);
+        if (!(fabs(b[i]) < INFINITY) || !(fabs(c[i]) < INFINITY)) return pc_model_error(err, n, "tableau: b[%d] or c[%d] is not finite", i, i);
         t->b[i] = b[i];
         t->c[i] = c[i];
     }
@@ -181,10 +170,10 @@ static int read_tableau(pc_model_t* m, int s, const double* A, const double* b, 
 pc_model_t* pc_model_create(const int* ib, const double* db, size_t n_ib, size_t n_db, int s, const double* A,
                             const double* b, const double* c, char* err, size_t err_size) {
     pc_model_t* m = (pc_model_t*)calloc(1, sizeof *m);
-    carve_t cv = {NULL, 0};
+    pc_carve_t cv = {NULL, 0};
     if (err && err_size) err[0] = '\0';
     if (!m) {
-        say(err, err_size, "out of memory for the model");
+        pc_model_error(err, err_size, "out of memory for the model");
         return NULL;
     }
     if (read_header(m, ib, n_ib, n_db, err, err_size) || (n_db && !db) ||
@@ -193,7 +182,7 @@ pc_model_t* pc_model_create(const int* ib, const double* db, size_t n_ib, size_t
     layout_model(m, &cv);
     m->block = calloc(1, cv.used);
     if (!m->block) {
-        say(err, err_size, "out of memory for the model (%zu bytes)", cv.used);
+        pc_model_error(err, err_size, "out of memory for the model (%zu bytes)", cv.used);
         goto fail;
     }
     cv.base = (char*)m->block;

@@ -24,24 +24,11 @@ typedef struct {
     double *Ic, *dY;       /* nj x 36: subtree inertia and inertia variation */
 } rd_work_t;
 
-static void cross_motion_matrix(const double* v, double* X) { /* X x = v x x */
-    double W[9] = {0, -v[5], v[4], v[5], 0, -v[3], -v[4], v[3], 0};
-    double L[9] = {0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0};
-    int i, j;
-    memset(X, 0, 36 * sizeof(double));
-    for (i = 0; i < 3; i++)
-        for (j = 0; j < 3; j++) {
-            X[6 * i + j] = W[3 * i + j];
-            X[6 * i + 3 + j] = L[3 * i + j];
-            X[6 * (3 + i) + 3 + j] = W[3 * i + j];
-        }
-}
-
 /* dY = [v x*] I - I [v x] + [. x* h], with [v x*] = -[v x]^T */
 static void inertia_variation(const double* I, const double* v, const double* h, double* dY) {
     double X[36];
     int r, c, k;
-    cross_motion_matrix(v, X);
+    motion_cross_matrix(v, X);
     for (r = 0; r < 6; r++)
         for (c = 0; c < 6; c++) {
             double s = 0.0;

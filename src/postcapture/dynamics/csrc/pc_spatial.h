@@ -84,6 +84,20 @@ static inline void cross_force(const double* v, const double* f, double* out) {
     out[3] = b[0] + c[0]; out[4] = b[1] + c[1]; out[5] = b[2] + c[2];
 }
 
+/* the matrix X of v x . on twists (ad_v): X = [[w]x, [vl]x; 0, [w]x] */
+static inline void motion_cross_matrix(const double* v, double* X) {
+    const double W[9] = {0, -v[5], v[4], v[5], 0, -v[3], -v[4], v[3], 0};
+    const double L[9] = {0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0};
+    int i, j;
+    memset(X, 0, 36 * sizeof(double));
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) {
+            X[6 * i + j] = W[3 * i + j];
+            X[6 * i + 3 + j] = L[3 * i + j];
+            X[6 * (3 + i) + 3 + j] = W[3 * i + j];
+        }
+}
+
 /* spatial inertia (dynamic parameters) times a twist: (m v - h x w, I_O w + h x v) */
 static inline void inertia_mul(const double* pi, const double* v, double* out) {
     double m = pi[0];

@@ -5,20 +5,9 @@
  * sorted tables. A model that passes may be used without further checks; one that fails is refused by
  * pc_model_create with the first problem found, naming the entry.
  */
-#include <stdarg.h>
-#include <stdio.h>
-
 #include "pc_internal.h"
 
-static int bad(char* err, size_t n, const char* fmt, ...) {
-    va_list ap;
-    if (err && n) {
-        va_start(ap, fmt);
-        vsnprintf(err, n, fmt, ap);
-        va_end(ap);
-    }
-    return PC_ERR_MODEL;
-}
+#define bad pc_model_error
 
 static int finite_all(const double* x, int n) {
     int i;
