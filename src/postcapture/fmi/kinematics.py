@@ -171,6 +171,41 @@ class QuaternionKinematics:
         return D
 
 
+def _index_problems(nx: int, att: list[int], rt: list[int]) -> list[str]:
+    """Problems of the attitude and rate indices themselves (range, distinct, not shared)."""
+    problems = []
+    if any(not 0 <= i < nx for i in att + rt):
+        problems.append(f"attitude and rate entries must be among the {nx} state entries")
+    if len(set(att)) != 4:
+        problems.append("the four attitude entries must be distinct")
+    if len(set(rt)) != 3:
+        problems.append("the three rate entries must be distinct")
+    shared = sorted(set(att) & set(rt))
+    if shared:
+        problems.append(f"attitude and rate share state entr{'ies' if len(shared) > 1 else 'y'} "
+                        f"{', '.join(str(i + 1) for i in shared)} (1-based): they must not overlap")
+    return problems
+
+
+def _free_flyer_problems(nx: int, att: list[int], rt: list[int]) -> list[str]:
+    if nx < 13 or nx % 2 == 0:
+        return [f"free_flyer kinematics: expected nx = 2 nq - 1 >= 13 state entries, found {nx}"]
+    nq = (nx + 1) // 2
+    if att != [6, 3, 4, 5] or rt != [nq + 3, nq + 4, nq + 5]:
+        return ["free_flyer kinematics: attitude must be q[7], q[4], q[5], q[6] and rate v[4], v[5], v[6] "
+                "of a Pinocchio free-flyer state"]
+    return []
+
+
+def _quaternion_problems(nx: int, att: list[int], rt: list[int]) -> list[str]:
+    rest = [i for i in range(nx) if i not in set(att)]
+    pos = [rest.index(i) for i in rt]
+    if pos != list(range(pos[0], pos[0] + 3)):
+        return ["quaternion kinematics: the rate entries must be consecutive in the state (apart from the "
+                "attitude entries) and in x, y, z order"]
+    return []
+
+
 def layout_problems(kind: str, nx: int, attitude, rate) -> list[str]:
     """Every reason why indices of q_BN (w, x, y, z) and of the rates do not fit layout ``kind``.
 
@@ -189,37 +224,15 @@ def layout_problems(kind: str, nx: int, attitude, rate) -> list[str]:
         Empty when the layout is usable.
     """
     att, rt = [int(i) for i in attitude], [int(i) for i in rate]
-    problems = []
     if len(att) != 4 or len(rt) != 3:
         return [f"expected 4 attitude and 3 rate entries, found {len(att)} and {len(rt)}"]
-    if any(not 0 <= i < nx for i in att + rt):
-        problems.append(f"attitude and rate entries must be among the {nx} state entries")
-    if len(set(att)) != 4:
-        problems.append("the four attitude entries must be distinct")
-    if len(set(rt)) != 3:
-        problems.append("the three rate entries must be distinct")
-    shared = sorted(set(att) & set(rt))
-    if shared:
-        problems.append(f"attitude and rate share state entr{'ies' if len(shared) > 1 else 'y'} "
-                        f"{', '.join(str(i + 1) for i in shared)} (1-based): they must not overlap")
+    problems = _index_problems(nx, att, rt)
     if problems:
         return problems
-    if kind == "free_flyer":
-        if nx < 13 or nx % 2 == 0:
-            return [f"free_flyer kinematics: expected nx = 2 nq - 1 >= 13 state entries, found {nx}"]
-        nq = (nx + 1) // 2
-        if att != [6, 3, 4, 5] or rt != [nq + 3, nq + 4, nq + 5]:
-            return ["free_flyer kinematics: attitude must be q[7], q[4], q[5], q[6] and rate v[4], v[5], v[6] "
-                    "of a Pinocchio free-flyer state"]
-        return []
-    if kind == "quaternion":
-        rest = [i for i in range(nx) if i not in set(att)]
-        pos = [rest.index(i) for i in rt]
-        if pos != list(range(pos[0], pos[0] + 3)):
-            return ["quaternion kinematics: the rate entries must be consecutive in the state (apart from the "
-                    "attitude entries) and in x, y, z order"]
-        return []
-    return [f"kinematics: expected free_flyer or quaternion, found {kind!r}"]
+    checks = {"free_flyer": _free_flyer_problems, "quaternion": _quaternion_problems}
+    if kind not in checks:
+        return [f"kinematics: expected free_flyer or quaternion, found {kind!r}"]
+    return checks[kind](nx, att, rt)
 
 
 def make_kinematics(kind: str, nx: int, attitude, rate):
