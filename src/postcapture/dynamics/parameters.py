@@ -105,10 +105,12 @@ def transform_matrix(R, p) -> np.ndarray:
 
 
 def dmass_direction(pi) -> np.ndarray:
-    """``d pi / d m`` at a fixed centre of mass and a fixed inertia about it, shape (10,)."""
-    props = mass_properties(pi)
-    c = props.com
-    return np.concatenate([[1.0], c, _sym(parallel_axis(1.0, c))])
+    """``d pi / d m`` at a fixed centre of mass and a fixed inertia about it, shape (10,):
+    ``[1, c, |c|^2 I - c c^T]`` with ``c = (m c) / m`` (a filter step calls it: plain arithmetic)."""
+    m = float(pi[0])
+    cx, cy, cz = float(pi[1]) / m, float(pi[2]) / m, float(pi[3]) / m
+    cc = cx * cx + cy * cy + cz * cz
+    return np.array([1.0, cx, cy, cz, cc - cx * cx, -cx * cy, cc - cy * cy, -cx * cz, -cy * cz, cc - cz * cz])
 
 
 def check_parameters(names, p, has_target: bool) -> np.ndarray:
