@@ -183,6 +183,20 @@ class LieRungeKutta:
         )
 
     # ------------------------------------------------------------------ one step
+    @staticmethod
+    def _predictor(i, v, hg, xi_bar, V_bar, Kxi, Kv, fsal):
+        """Newton's starting point for implicit stage ``i``."""
+        if fsal is not None and len(fsal[2]) > i:
+            # the same stage of the previous step, shifted by how the step's start moved: the stiff,
+            # quasi-static coordinates change smoothly from step to step, unlike along the stages
+            V0 = fsal[2][i] + (v - fsal[3])
+            return xi_bar + hg * V0, V0
+        if i:  # continue with the previous stage's slopes
+            return xi_bar + hg * Kxi[i - 1], V_bar + hg * Kv[i - 1]
+        if fsal is not None:  # the previous step's last slope
+            return hg * v, v + hg * fsal[1]
+        return hg * v, v
+
     def _stages(self, q, v, t, h, u_extra, refresh):
         """Solve every stage; returns the stages ``(xi, V, t_i, u_i)``, their slopes and the step's end."""
         sysm = self.system
@@ -216,17 +230,7 @@ class LieRungeKutta:
                 hg = h * g
                 if i == 0 and (refresh or self._lu is None or self._lu[3] != hg or self._lu_age >= self.reuse_jacobian):
                     self._newton_matrix(q, v, sysm.input_vector(t, u_extra), hg)
-                if fsal is not None and len(fsal[2]) > i:
-                    # the same stage of the previous step, shifted by how the step's start moved: the stiff,
-                    # quasi-static coordinates change smoothly from step to step, unlike along the stages
-                    V0 = fsal[2][i] + (v - fsal[3])
-                    xi0 = xi_bar + hg * V0
-                elif i:  # continue with the previous stage's slopes
-                    xi0, V0 = xi_bar + hg * Kxi[i - 1], V_bar + hg * Kv[i - 1]
-                elif fsal is not None:  # the previous step's last slope
-                    xi0, V0 = hg * v, v + hg * fsal[1]
-                else:
-                    xi0, V0 = hg * v, v
+                xi0, V0 = self._predictor(i, v, hg, xi_bar, V_bar, Kxi, Kv, fsal)
                 xi, V = self._solve_stage(q, u_i, xi_bar, V_bar, hg, xi0, V0, t)
                 inv = 1.0 / hg
                 Kxi.append((xi - xi_bar) * inv)
