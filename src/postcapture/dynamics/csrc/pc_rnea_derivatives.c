@@ -24,27 +24,53 @@ typedef struct {
     double *Ic, *dY;       /* nj x 36: subtree inertia and inertia variation */
 } rd_work_t;
 
-/* dY = [v x*] I - I [v x] + [. x* h], with [v x*] = -[v x]^T */
-static void inertia_variation(const double* I, const double* v, const double* h, double* dY) {
-    double X[36];
-    int r, c, k;
-    motion_cross_matrix(v, X);
-    for (r = 0; r < 6; r++)
-        for (c = 0; c < 6; c++) {
-            double s = 0.0;
-            for (k = 0; k < 6; k++) s += -X[6 * k + r] * I[6 * k + c] - I[6 * r + k] * X[6 * k + c];
-            dY[6 * r + c] = s;
+static void skew(const double* a, double* S) {
+    S[0] = 0; S[1] = -a[2]; S[2] = a[1]; S[3] = a[2]; S[4] = 0; S[5] = -a[0]; S[6] = -a[1]; S[7] = a[0]; S[8] = 0;
+}
+
+/* dY = [v x*] I - I [v x] + [. x* mu] for the inertia of dynamic parameters pi (m, h, I_O) and the
+ * momentum mu = I v: with the skew matrices W = [w]x, L = [v_l]x, H = [h]x and mu_l = m v_l + w x h, its
+ * linear columns vanish, the top-right block is -2 [mu_l]x and the bottom-right
+ * W I_O - I_O W - L H - H L - [mu_n]x. */
+static void inertia_variation(const double* pi, const double* v, const double* mu, double* dY) {
+    double W[9], L[9], H[9], Io[9], A[9], B[9], C[9], D[9], Ml[9], Mn[9];
+    int i, j;
+    skew(v + 3, W);
+    skew(v, L);
+    skew(pi + 1, H);
+    skew(mu, Ml);
+    skew(mu + 3, Mn);
+    Io[0] = pi[4]; Io[1] = Io[3] = pi[5]; Io[4] = pi[6]; Io[2] = Io[6] = pi[7]; Io[5] = Io[7] = pi[8]; Io[8] = pi[9];
+    mm3(W, Io, A);
+    mm3(Io, W, B);
+    mm3(L, H, C);
+    mm3(H, L, D);
+    memset(dY, 0, 36 * sizeof(double));
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) {
+            dY[6 * i + 3 + j] = -2.0 * Ml[3 * i + j];
+            dY[6 * (3 + i) + 3 + j] = A[3 * i + j] - B[3 * i + j] - C[3 * i + j] - D[3 * i + j] - Mn[3 * i + j];
         }
-    /* x x* h = (xw x hl, xw x hn + xl x hl) */
-    dY[0 * 6 + 4] += h[2]; dY[0 * 6 + 5] -= h[1];
-    dY[1 * 6 + 3] -= h[2]; dY[1 * 6 + 5] += h[0];
-    dY[2 * 6 + 3] += h[1]; dY[2 * 6 + 4] -= h[0];
-    dY[3 * 6 + 1] += h[2]; dY[3 * 6 + 2] -= h[1];
-    dY[4 * 6 + 0] -= h[2]; dY[4 * 6 + 2] += h[0];
-    dY[5 * 6 + 0] += h[1]; dY[5 * 6 + 1] -= h[0];
-    dY[3 * 6 + 4] += h[5]; dY[3 * 6 + 5] -= h[4];
-    dY[4 * 6 + 3] -= h[5]; dY[4 * 6 + 5] += h[3];
-    dY[5 * 6 + 3] += h[4]; dY[5 * 6 + 4] -= h[3];
+}
+
+/* a body's ten dynamic parameters carried to the world frame by the placement (R, p) */
+static void world_parameters(const double* R, const double* p, const double* pi, double* out) {
+    double Io[9], T[9], Ir[9], h[3], P[9], Hh[9], PP[9], PH[9], HP[9], m = pi[0];
+    int i, j;
+    Io[0] = pi[4]; Io[1] = Io[3] = pi[5]; Io[4] = pi[6]; Io[2] = Io[6] = pi[7]; Io[5] = Io[7] = pi[8]; Io[8] = pi[9];
+    mm3(R, Io, T);
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) Ir[3 * i + j] = T[3 * i] * R[3 * j] + T[3 * i + 1] * R[3 * j + 1] + T[3 * i + 2] * R[3 * j + 2];
+    mv3(R, pi + 1, h);
+    skew(p, P);
+    skew(h, Hh);
+    mm3(P, P, PP);
+    mm3(P, Hh, PH);
+    mm3(Hh, P, HP);
+    for (i = 0; i < 9; i++) Ir[i] -= m * PP[i] + PH[i] + HP[i];
+    out[0] = m;
+    for (i = 0; i < 3; i++) out[1 + i] = h[i] + m * p[i];
+    out[4] = Ir[0]; out[5] = Ir[1]; out[6] = Ir[4]; out[7] = Ir[2]; out[8] = Ir[5]; out[9] = Ir[8];
 }
 
 /* world motion subspace columns of joint i (world placements computed) */
@@ -80,7 +106,7 @@ static void forward(const pc_model_t* m, pc_data_t* d, const double* v, const do
         const pc_joint_t* Jn = &m->joints[i];
         int nd = Jn->kind < 0 ? 6 : 1;
         double *J = W->J + 6 * Jn->iv, *ov = W->ov + 6 * i, *oa = W->oa + 6 * i, *I = W->Ic + 36 * i;
-        double Sv[6] = {0, 0, 0, 0, 0, 0}, vS[6], I6[36], h[6], Ia[6], b[6];
+        double Sv[6] = {0, 0, 0, 0, 0, 0}, vS[6], pw[10], h[6], Ia[6], b[6];
         joint_columns(m, d, i, J);
         if (Jn->parent >= 0) {
             memcpy(ov, W->ov + 6 * Jn->parent, 6 * sizeof(double));
@@ -97,14 +123,13 @@ static void forward(const pc_model_t* m, pc_data_t* d, const double* v, const do
         for (k = 0; k < 6; k++) ov[k] += Sv[k];
         cross_motion(ov, Sv, vS);
         for (k = 0; k < 6; k++) oa[k] += vS[k];
-        pc_joint_inertia_matrix(d->pi + 10 * i, I6);
-        memset(I, 0, 36 * sizeof(double));
-        pc_add_transformed_inertia(d->Ro + 9 * i, d->po + 3 * i, I6, I);
-        mv6(I, ov, h);
-        mv6(I, oa, Ia);
+        world_parameters(d->Ro + 9 * i, d->po + 3 * i, d->pi + 10 * i, pw);
+        pc_joint_inertia_matrix(pw, I);
+        inertia_mul(pw, ov, h);
+        inertia_mul(pw, oa, Ia);
         cross_force(ov, h, b);
         for (k = 0; k < 6; k++) W->F[6 * i + k] = Ia[k] + b[k];
-        inertia_variation(I, ov, h, W->dY + 36 * i);
+        inertia_variation(pw, ov, h, W->dY + 36 * i);
     }
 }
 
