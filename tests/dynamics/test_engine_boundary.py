@@ -289,3 +289,20 @@ def test_the_arena_covers_the_deepest_call(system):
     plant.simulate(q, v, 0.0, 0.1, 1, 3)
     plant.step_jacobian(q, v, 0.0, 0.1)
     assert 0 < plant.stats()["arena_peak"] <= system.nv * 10**6
+
+
+def test_what_crosses_a_process_boundary(system):
+    """A System and a constant model pickle (rebuilt by their constructors in the other process); an
+    instance, which is a handle in this process's core, refuses with a message."""
+    heavier = system.with_target_mass(8000.0)
+    other = pickle.loads(pickle.dumps(heavier))
+    assert other.target_mass == 8000.0
+    np.testing.assert_array_equal(pack(other).doubles, pack(heavier).doubles)
+    np.testing.assert_array_equal(pack(other).ints, pack(heavier).ints)
+    plant = CompiledPlant(system)
+    model = pickle.loads(pickle.dumps(plant.model))
+    assert model.handle != plant.model.handle and model.param_names == plant.param_names
+    q, v = initial_state(system)
+    np.testing.assert_array_equal(CompiledPlant(model=model).step(q, v, 0.0, 0.1)[1], plant.step(q, v, 0.0, 0.1)[1])
+    with pytest.raises(TypeError, match="cannot be pickled"):
+        pickle.dumps(plant)

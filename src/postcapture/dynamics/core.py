@@ -69,6 +69,10 @@ class CompiledPlant:
             eng.data_destroy(d)
             self._d = None
 
+    def __reduce__(self):
+        raise TypeError("a CompiledPlant is an instance in this process's compiled core and cannot be pickled: "
+                        "send its System (or its model, an EngineModel) and build the instance where it runs")
+
     def copy(self) -> "CompiledPlant":
         """Another instance over the same constant model, with this one's parameters, input offset and
         Newton settings (not its warm start or statistics)."""

@@ -220,6 +220,9 @@ class EngineModel:
         self.nq, self.nv, self.nu, self.np, self.nz, self.npanels, self.nj, _ = (int(x) for x in sizes)
         self.nt = 2 * self.nv
 
+    def __reduce__(self):  # another process builds its own from the same arrays (a handle means nothing there)
+        return (EngineModel, (self.ints, self.doubles, self.tableau, self.param_names))
+
     def nominal_params(self) -> np.ndarray:
         """The parameter vector the model was packed with."""
         p = np.zeros(self.np)

@@ -84,6 +84,10 @@ class System:
         set_(self, "B", _frozen(self._input_matrix(input_matrix)))
         self._init_parameters(parameters)
 
+    def __reduce__(self):
+        return (_rebuild, (self.assembly, self.inputs, self.B if self.custom_input_matrix else None, self._p,
+                           self.scenario))
+
     def __setattr__(self, name, value):
         raise AttributeError(f"System is immutable: use with_parameters(), with_updates() or with_target_mass() "
                              f"instead of setting {name!r}")
@@ -232,3 +236,8 @@ class System:
         from postcapture.dynamics.liegroup import difference
 
         return difference(q0, q1, self.nq, self.nv, self.layout.free_flyer)
+
+
+def _rebuild(assembly, inputs, input_matrix, parameters, scenario) -> System:
+    """Unpickle a :class:`System` (through its constructor: it is immutable)."""
+    return System(assembly, inputs, input_matrix, parameters=parameters, scenario=scenario)
