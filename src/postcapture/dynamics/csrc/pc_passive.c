@@ -21,17 +21,20 @@ static void stretch(const pc_model_t* m, const pc_spring_t* S, const double* q, 
     }
 }
 
-/* tau = spring and damper forces (overwrites tau) */
+/* tau = spring and damper forces (overwrites tau); the integrators' innermost force, written out */
 void pc_spring_force(const pc_model_t* m, const pc_data_t* d, const double* q, const double* v, double* tau) {
-    int i, x;
+    int i, off = m->nq - m->nv;
     memset(tau, 0, (size_t)m->nv * sizeof(double));
     for (i = 0; i < m->ns; i++) {
         const pc_spring_t* S = &m->springs[i];
-        double defl = 0.0, rate = 0.0, f;
-        stretch(m, S, q, v, &defl, &rate);
+        double defl = S->a[0] * q[S->v[0] + off] - S->rest, rate = S->a[0] * v[S->v[0]], f;
+        if (S->v[1] >= 0) {
+            defl += S->a[1] * q[S->v[1] + off];
+            rate += S->a[1] * v[S->v[1]];
+        }
         f = -d->k[i] * defl - d->dmp[i] * rate;
-        for (x = 0; x < 2; x++)
-            if (S->v[x] >= 0) tau[S->v[x]] += S->a[x] * f;
+        tau[S->v[0]] += S->a[0] * f;
+        if (S->v[1] >= 0) tau[S->v[1]] += S->a[1] * f;
     }
 }
 
