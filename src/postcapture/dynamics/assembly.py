@@ -3,7 +3,7 @@
 The tree: a free-flyer root for the chaser bus (joint ``chaser``, frame B); its panels (a root torsion
 hinge about the panel's x axis, then one bending hinge about y per segment); the arm joints (each
 optionally with a Spong rotor joint beside it); the target hub rigidly appended to the last arm link;
-the target's panels. Springs and dampers are not part of the Pinocchio model: they are collected here
+the target's panels. Springs and dampers are not part of the tree: they are collected here
 as a :class:`SpringSet` and added as joint torques by the compiled core.
 
 Variants: ``flexible`` (as described), ``stiff`` (every spring k = 1e7 N m/rad, the reference's
@@ -13,7 +13,7 @@ The tests build the same trees with Pinocchio's own API and hold these to them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

@@ -16,13 +16,13 @@ import numpy as np
 from postcapture.dynamics.excitation import pack_profiles
 from postcapture.dynamics.system import System
 
-__all__ = ["LAYOUT_VERSION", "Packed", "pack_profiles", "ParameterLayout", "parameter_layout", "pack"]
+__all__ = ["Packed", "pack_profiles", "ParameterLayout", "parameter_layout", "pack"]
 
 _KINDS = {"rx": 0, "ry": 1, "rz": 2, "free_flyer": -1}
 
 
 def __getattr__(name):
-    if name == "LAYOUT_VERSION":  # written once, in csrc/pc_plant.h; read from the core
+    if name == "LAYOUT_VERSION":  # written once, in csrc/pc_plant.h; read from the core (module attribute)
         from postcapture.dynamics.engine import layout_version
 
         return layout_version()
