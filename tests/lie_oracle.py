@@ -139,7 +139,7 @@ class LieRungeKutta:
 
     def _solve_stage(self, q, u_i, xi_bar, V_bar, hg, xi, V, t_start):
         sysm = self.system
-        model = sysm.model
+        model = ref.pin_data(sysm)[0]
         integrate, accel, getrs, sp = pin.integrate, ref.acceleration_u, _getrs, self._springs
         ff = self.n_ff
         # per-component weights 1 / (atol + rtol |y_i|): a small stiff coordinate converges as tightly as a
@@ -183,6 +183,20 @@ class LieRungeKutta:
         )
 
     # ------------------------------------------------------------------ one step
+    @staticmethod
+    def _predictor(i, v, hg, xi_bar, V_bar, Kxi, Kv, fsal):
+        """Newton's starting point for implicit stage ``i``."""
+        if fsal is not None and len(fsal[2]) > i:
+            # the same stage of the previous step, shifted by how the step's start moved: the stiff,
+            # quasi-static coordinates change smoothly from step to step, unlike along the stages
+            V0 = fsal[2][i] + (v - fsal[3])
+            return xi_bar + hg * V0, V0
+        if i:  # continue with the previous stage's slopes
+            return xi_bar + hg * Kxi[i - 1], V_bar + hg * Kv[i - 1]
+        if fsal is not None:  # the previous step's last slope
+            return hg * v, v + hg * fsal[1]
+        return hg * v, v
+
     def _stages(self, q, v, t, h, u_extra, refresh):
         """Solve every stage; returns the stages ``(xi, V, t_i, u_i)``, their slopes and the step's end."""
         sysm = self.system
@@ -211,22 +225,12 @@ class LieRungeKutta:
             if g == 0.0:
                 xi, V = xi_bar, V_bar
                 Kxi.append(self._kxi(xi, V))
-                Kv.append(ref.acceleration_u(sysm, pin.integrate(sysm.model, q, xi), V, u_i, sp))
+                Kv.append(ref.acceleration_u(sysm, pin.integrate(ref.pin_data(sysm)[0], q, xi), V, u_i, sp))
             else:
                 hg = h * g
                 if i == 0 and (refresh or self._lu is None or self._lu[3] != hg or self._lu_age >= self.reuse_jacobian):
                     self._newton_matrix(q, v, sysm.input_vector(t, u_extra), hg)
-                if fsal is not None and len(fsal[2]) > i:
-                    # the same stage of the previous step, shifted by how the step's start moved: the stiff,
-                    # quasi-static coordinates change smoothly from step to step, unlike along the stages
-                    V0 = fsal[2][i] + (v - fsal[3])
-                    xi0 = xi_bar + hg * V0
-                elif i:  # continue with the previous stage's slopes
-                    xi0, V0 = xi_bar + hg * Kxi[i - 1], V_bar + hg * Kv[i - 1]
-                elif fsal is not None:  # the previous step's last slope
-                    xi0, V0 = hg * v, v + hg * fsal[1]
-                else:
-                    xi0, V0 = hg * v, v
+                xi0, V0 = self._predictor(i, v, hg, xi_bar, V_bar, Kxi, Kv, fsal)
                 xi, V = self._solve_stage(q, u_i, xi_bar, V_bar, hg, xi0, V0, t)
                 inv = 1.0 / hg
                 Kxi.append((xi - xi_bar) * inv)
@@ -247,7 +251,7 @@ class LieRungeKutta:
 
     def _finish(self, q, xi_end, v_end, Kv, t):
         self.stats["steps"] += 1
-        q1 = pin.integrate(self.system.model, q, xi_end)
+        q1 = pin.integrate(ref.pin_data(self.system)[0], q, xi_end)
         if not (np.isfinite(q1).all() and np.isfinite(v_end).all()):
             raise SimulationError(f"{self.tableau.name}: non-finite state after the step at t = {t:.6g} s")
         self._fsal = (q1, Kv[-1], [Z_i[1] for Z_i in self._last_Z], self._last_v) if self._stiffly_accurate else None
@@ -282,7 +286,7 @@ class LieRungeKutta:
         accurate to the integrator's order.
         """
         Z, _, Kv, xi_end, v_end = self._stages(q, v, t, h, u_extra, refresh)
-        model = self.system.model
+        model = ref.pin_data(self.system)[0]
         total = 0.0
         for b_i, (xi, V, _, u_i) in zip(self.tableau.b, Z):
             total = total + b_i * integrand(pin.integrate(model, q, xi), V, u_i)
@@ -292,7 +296,7 @@ class LieRungeKutta:
     def step_jacobian(self, q, v, t: float, h: float, u_extra=None, wrt_params: bool = True) -> StepJacobian:
         """Take one step and return it with its exact Jacobian (see :class:`StepJacobian`)."""
         sysm = self.system
-        model = sysm.model
+        model = ref.pin_data(sysm)[0]
         tab = self.tableau
         nv, nu = sysm.nv, sysm.n_u
         n_par = len(sysm.parameter_names) if wrt_params else 0

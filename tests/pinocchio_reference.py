@@ -1,10 +1,13 @@
 """The plant's equations written with Pinocchio: the tests' independent reference of the compiled core.
 
 The package computes the plant's dynamics once, in the compiled core (``postcapture/dynamics/csrc``,
-:class:`postcapture.dynamics.core.CompiledPlant`). This module, outside the package, writes the same
-equations a second way, from a :class:`~postcapture.dynamics.system.System`'s public description (its
-Pinocchio model, springs, input matrix ``B`` and parameter vector) and Pinocchio's algorithms
-(``aba``, ``computeABADerivatives``, ``bodyRegressor``), so that the core can be checked against it.
+:class:`postcapture.dynamics.core.CompiledPlant`), and never imports Pinocchio. This module, outside the
+package, writes the same equations a second way, from a :class:`~postcapture.dynamics.system.System`'s
+public description (its joint tree, springs, input matrix ``B`` and parameter vector) turned into a
+Pinocchio model (:func:`pin_model`), and Pinocchio's algorithms (``aba``, ``computeABADerivatives``,
+``bodyRegressor``), so that the core can be checked against it. :func:`scenario_model` builds a
+scenario's tree a second way too, with Pinocchio's own API (joints, frames, ``SE3`` products,
+``Inertia.act``, ``buildReducedModel``), to hold the package's plain-numpy tree builder to it.
 
 The equations (see :mod:`postcapture.dynamics.system` for the coordinates):
 
@@ -25,9 +28,48 @@ import pinocchio as pin
 from postcapture.dynamics.system import System
 
 __all__ = [
-    "Springs", "springs", "spring_torque", "generalized_force", "acceleration", "acceleration_u", "derivatives",
+    "pin_model", "pin_data", "scenario_model", "Springs", "springs", "spring_torque", "generalized_force", "acceleration", "acceleration_u", "derivatives",
     "derivatives_u", "ddq_dparams", "ddq_dmass", "elastic_energy", "kinetic_energy",
 ]
+
+
+_PIN_KINDS = {"free_flyer": pin.JointModelFreeFlyer, "rx": pin.JointModelRX, "ry": pin.JointModelRY,
+              "rz": pin.JointModelRZ}
+
+
+def _pin_inertia(pi) -> pin.Inertia:
+    """Pinocchio's inertia of ten dynamic parameters (a massless body, e.g. a rotor, has no centre of mass)."""
+    if pi[0] != 0.0:
+        return pin.Inertia.FromDynamicParameters(np.asarray(pi, dtype=float))
+    I = np.array([[pi[4], pi[5], pi[7]], [pi[5], pi[6], pi[8]], [pi[7], pi[8], pi[9]]])
+    return pin.Inertia(0.0, np.zeros(3), I)
+
+
+def pin_model(system: System) -> pin.Model:
+    """A Pinocchio model of the system's tree at its parameter vector (no gravity; frames as OP_FRAMEs)."""
+    model = pin.Model()
+    model.gravity = pin.Motion.Zero()
+    for j, J in enumerate(system.tree.joints):
+        jid = model.addJoint(J.parent + 1, _PIN_KINDS[J.kind](), pin.SE3(J.rotation.copy(), J.translation.copy()), J.name)
+        model.appendBodyToJoint(jid, _pin_inertia(system.joint_inertia(j)), pin.SE3.Identity())
+    for f in system.tree.frames:
+        model.addFrame(pin.Frame(f.name, f.joint + 1, 0, pin.SE3(f.rotation.copy(), f.translation.copy()),
+                                 pin.FrameType.OP_FRAME))
+    return model
+
+
+_MODELS: dict[int, tuple] = {}
+
+
+def pin_data(system: System):
+    """``(model, data)`` of :func:`pin_model`, kept per system (a System is immutable)."""
+    key = id(system)
+    if key not in _MODELS or _MODELS[key][0] is not system:
+        model = pin_model(system)
+        _MODELS[key] = (system, model, model.createData())
+        while len(_MODELS) > 64:  # perturbed copies of finite-difference loops: keep the recent ones
+            _MODELS.pop(next(iter(_MODELS)))
+    return _MODELS[key][1], _MODELS[key][2]
 
 
 @dataclass(frozen=True)
@@ -77,7 +119,13 @@ def springs(system: System) -> Springs:
     """The springs of ``system`` at its current parameter vector."""
     sp = system.assembly.springs
     p = system.parameters()
-    S_k, S_d = system._S_k, system._S_d  # the parameter that scales each spring (System's parameter data)
+    n_p = len(system.parameter_names)
+    S_k, S_d = np.zeros((len(sp.k), n_p)), np.zeros((len(sp.k), n_p))  # which parameter scales each spring
+    for j, (ik, id_) in enumerate(zip(system.spring_k, system.spring_d)):
+        if ik >= 0:
+            S_k[j, ik] = 1.0
+        if id_ >= 0:
+            S_d[j, id_] = 1.0
     k_nom, d_nom = np.asarray(sp.k, dtype=float), np.asarray(sp.d, dtype=float)
     k = k_nom * np.where(S_k.any(axis=1), S_k @ p, 1.0)
     d = d_nom * np.where(S_d.any(axis=1), S_d @ p, 1.0)
@@ -105,7 +153,8 @@ def generalized_force(system: System, q, v, t: float, u_extra=None) -> np.ndarra
 # ---------------------------------------------------------------------- dynamics
 def acceleration_u(system: System, q, v, u, sp: Springs | None = None) -> np.ndarray:
     """``ddq`` (nv,) for an input vector ``u`` (n_u,), by Pinocchio's articulated-body algorithm."""
-    return pin.aba(system.model, system.data, q, v, force_from_inputs(system, q, v, u, sp))
+    model, data = pin_data(system)
+    return pin.aba(model, data, q, v, force_from_inputs(system, q, v, u, sp))
 
 
 def acceleration(system: System, q, v, t: float, u_extra=None) -> np.ndarray:
@@ -127,7 +176,7 @@ def derivatives_u(system: System, q, v, u, sp: Springs | None = None):
         Inverse mass matrix (= d ddq / d tau; the input partial is ``Minv @ system.B``).
     """
     sp = springs(system) if sp is None else sp
-    model, data = system.model, system.data
+    model, data = pin_data(system)
     dq, dv, Minv = pin.computeABADerivatives(model, data, q, v, force_from_inputs(system, q, v, u, sp))
     ddq = data.ddq.copy()
     dq, dv, Minv = np.array(dq), np.array(dv), np.array(Minv)
@@ -154,11 +203,11 @@ def ddq_dparams(system: System, q, v, ddq, Minv, sp: Springs | None = None) -> n
     """
     out = np.zeros((system.nv, len(system.parameter_names)))
     if system.layout.has_target:
-        model, data, j = system.model, system.data, system._t_joint
+        (model, data), j = pin_data(system), system.target_joint + 1
         pin.forwardKinematics(model, data, q, v, ddq)
         J = pin.computeJointJacobian(model, data, q, j)
         Y = pin.bodyRegressor(data.v[j], data.a[j])
-        out[:, :10] = -Minv @ (J.T @ (Y @ system._t_L))
+        out[:, :10] = -Minv @ (J.T @ (Y @ system.target_map))
     sp = springs(system) if sp is None else sp
     if sp.A.size:
         out += Minv[:, system.n_root_v :] @ sp.torque_dparams(q, v)
@@ -182,5 +231,109 @@ def elastic_energy(system: System, q) -> float:
 
 def kinetic_energy(system: System, q, v) -> float:
     """Kinetic energy of the whole tree (J)."""
-    return float(pin.computeKineticEnergy(system.model, system.data, q, v))
+    model, data = pin_data(system)
+    return float(pin.computeKineticEnergy(model, data, q, v))
 
+
+
+# ---------------------------------------------------------------------- the scenario's tree, by Pinocchio
+def _se3(R, p) -> pin.SE3:
+    return pin.SE3(np.asarray(R, dtype=float), np.asarray(p, dtype=float))
+
+
+def _pose(pose) -> pin.SE3:
+    return _se3(pose.rotation(), pose.translation())
+
+
+def _inertia(props) -> pin.Inertia:
+    return pin.Inertia(props.mass, props.com, props.inertia)
+
+
+class _PinBuilder:
+    """The tree of ``postcapture.dynamics.assembly``, written with Pinocchio's own API (the former builder)."""
+
+    def __init__(self, scenario):
+        self.sc = scenario
+        self.model = pin.Model()
+        self.model.gravity = pin.Motion.Zero()
+        self.rest: dict[int, float] = {}
+        self.body_frame: dict[int, int] = {0: 0}  # joint id -> its body frame (the universe's is 0)
+
+    def joint(self, parent, jmodel, placement, name, inertia=None) -> int:
+        m = self.model
+        jid = m.addJoint(parent, jmodel, placement, name)
+        fid = m.addJointFrame(jid, self.body_frame.get(parent, 0))
+        if inertia is not None:
+            m.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
+        self.body_frame[jid] = m.addBodyFrame(name + "_body", jid, pin.SE3.Identity(), fid)
+        return jid
+
+    def frame(self, name, joint, placement) -> None:
+        self.model.addFrame(pin.Frame(name, joint, self.body_frame[joint], placement, pin.FrameType.OP_FRAME))
+
+    def panel(self, host, mount, panel) -> None:
+        from postcapture.dynamics.bodies import segment_properties
+
+        n, l = panel.segments, panel.length / panel.segments
+        seg = _inertia(segment_properties(panel))
+        self.frame(f"{panel.name}_root", host, mount)
+        parent = self.joint(host, pin.JointModelRX(), mount, f"{panel.name}_torsion")
+        for i in range(n):
+            parent = self.joint(parent, pin.JointModelRY(), _se3(np.eye(3), [l if i else 0.0, 0, 0]),
+                                f"{panel.name}_bend_{i + 1}", seg)
+        self.frame(f"{panel.name}_tip", parent, _se3(np.eye(3), [l, 0.0, 0.0]))
+
+    def hub(self, body, where):
+        from postcapture.dynamics.bodies import MassProperties, hub_properties, panel_properties
+
+        mounts = [(p.mount.rotation(), p.mount.translation(), panel_properties(p)) for p in body.panels]
+        if body.properties_include_panels:
+            return hub_properties(body.mass, body.inertia, mounts, where)
+        return MassProperties(body.mass, np.zeros(3), body.inertia)
+
+    def arm(self, root) -> int:
+        axes = {"x": pin.JointModelRX, "y": pin.JointModelRY, "z": pin.JointModelRZ}
+        parent = root
+        for i, js in enumerate(self.sc.arm.joints):
+            placement = _pose(js.origin) if i else _pose(self.sc.arm.base) * _pose(js.origin)
+            if js.rotor_inertia is not None:
+                axis = np.eye(3)["xyz".index(js.axis)]
+                rotor = self.joint(parent, axes[js.axis](), placement, f"arm_{i + 1}_rotor",
+                                   pin.Inertia(0.0, np.zeros(3), js.rotor_inertia * np.outer(axis, axis)))
+                self.rest[rotor] = js.rest_angle
+            link = pin.Inertia(js.mass, np.asarray(js.com, dtype=float), np.asarray(js.inertia, dtype=float))
+            parent = self.joint(parent, axes[js.axis](), placement, f"arm_{i + 1}", link)
+            self.rest[parent] = js.rest_angle
+        return parent
+
+    def build(self):
+        sc = self.sc
+        root = self.joint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "chaser", _inertia(self.hub(sc.chaser, "chaser")))
+        self.frame("accelerometer", root, _se3(np.eye(3), sc.chaser.accelerometer_position))
+        for p in sc.chaser.panels:
+            self.panel(root, _pose(p.mount), p)
+        if sc.arm is not None:
+            last = self.arm(root)
+            tool = _pose(sc.arm.tool)
+            self.frame("grasp", last, tool)
+            if sc.target is not None:
+                X_JT = tool * _pose(sc.target.grasp_to_com)
+                self.model.appendBodyToJoint(last, X_JT.act(_inertia(self.hub(sc.target, "target"))), pin.SE3.Identity())
+                self.frame("target", last, X_JT)
+                for p in sc.target.panels:
+                    self.panel(last, X_JT * _pose(p.mount), p)
+        q_rest = pin.neutral(self.model)
+        for jid, angle in self.rest.items():
+            q_rest[self.model.joints[jid].idx_q] = angle
+        return self.model, q_rest
+
+
+def scenario_model(scenario, variant: str = "flexible") -> tuple[pin.Model, np.ndarray]:
+    """The scenario's tree built with Pinocchio's API (``rigid``: ``buildReducedModel`` at rest) and its rest
+    configuration."""
+    model, q_rest = _PinBuilder(scenario).build()
+    if variant == "rigid":
+        model = pin.buildReducedModel(model, list(range(2, model.njoints)), q_rest)
+        model.gravity = pin.Motion.Zero()
+        q_rest = pin.neutral(model)
+    return model, q_rest

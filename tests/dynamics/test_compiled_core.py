@@ -37,7 +37,7 @@ def _random_state(system, rng):
 
 def test_aba_rnea_mass_matrix_match_pinocchio(system, plant):
     rng = np.random.default_rng(1)
-    model, data = system.model, system.data
+    model, data = ref.pin_data(system)
     for _ in range(5):
         q, v = _random_state(system, rng)
         tau = rng.standard_normal(system.nv) * 100.0
@@ -50,6 +50,23 @@ def test_aba_rnea_mass_matrix_match_pinocchio(system, plant):
         np.testing.assert_allclose(plant.mass_matrix(q), M, rtol=0, atol=1e-12 * np.abs(M).max())
         dq = rng.standard_normal(system.nv) * 0.2
         np.testing.assert_allclose(plant.integrate(q, dq), pin.integrate(model, q, dq), atol=1e-15)
+        q1 = pin.integrate(model, q, dq)
+        np.testing.assert_allclose(plant.difference(q, q1), pin.difference(model, q, q1), atol=1e-12)
+
+
+def test_rnea_derivatives_match_pinocchio(system, plant):
+    """The analytic inverse-dynamics partials (csrc/pc_rnea_derivatives.c) against Pinocchio's
+    computeRNEADerivatives at generic states; the root's configuration columns are zero (no gravity)."""
+    rng = np.random.default_rng(11)
+    model, data = ref.pin_data(system)
+    for _ in range(4):
+        q, v = _random_state(system, rng)
+        a = rng.standard_normal(system.nv)
+        dq_ref, dv_ref, _ = (np.array(x) for x in pin.computeRNEADerivatives(model, data, q, v, a))
+        dq, dv = plant.rnea_derivatives(q, v, a)
+        np.testing.assert_allclose(dq, dq_ref, rtol=0, atol=1e-10 * np.abs(dq_ref).max())
+        np.testing.assert_allclose(dv, dv_ref, rtol=0, atol=1e-10 * np.abs(dv_ref).max())
+        assert np.abs(dq[:, :6]).max() <= 1e-10 * np.abs(dq_ref).max()
 
 
 def test_energies_match_pinocchio(system, plant):
@@ -143,7 +160,7 @@ def test_step_jacobian_against_central_differences(system):
     nv = system.nv
 
     def step(dx=None, du=None, p=None):
-        qq = pin.integrate(system.model, q, dx[:nv]) if dx is not None else q
+        qq = pin.integrate(ref.pin_data(system)[0], q, dx[:nv]) if dx is not None else q
         vv = v + dx[nv:] if dx is not None else v
         plant.set_input_offset(du)
         if p is not None:
@@ -153,7 +170,7 @@ def test_step_jacobian_against_central_differences(system):
         return q1, v1
 
     def diff(a, b):
-        return np.concatenate([pin.difference(system.model, b[0], a[0]), a[1] - b[1]])
+        return np.concatenate([pin.difference(ref.pin_data(system)[0], b[0], a[0]), a[1] - b[1]])
 
     rng = np.random.default_rng(4)
     for col in rng.choice(2 * nv, 8, replace=False):

@@ -10,6 +10,7 @@ from postcapture.dynamics.bodies import MassProperties
 from postcapture.dynamics.build import build_system, initial_state
 from lie_oracle import make_integrator
 from postcapture.dynamics.parameters import dmass_direction, dynamic_parameters, mass_properties, transform_matrix
+from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.process_model import NativeProcessModel
 
 
@@ -65,14 +66,12 @@ def _fd_columns(system, f):
     def at(j, delta):
         p = p0.copy()
         p[j] += delta
-        system.set_parameters(p)
-        return f()
+        return f(system.with_parameters(p))
 
     cols = []
     for j in range(p0.size):
         eps = 1.0 if j < 4 else (10.0 if j < 10 else 1e-2)
         cols.append((-at(j, 2 * eps) + 8 * at(j, eps) - 8 * at(j, -eps) + at(j, -2 * eps)) / (12 * eps))
-    system.set_parameters(p0)
     return np.column_stack(cols)
 
 
@@ -95,11 +94,11 @@ def test_acceleration_derivatives(envisat):
     p0 = system.parameters()
     p0[13] += 40.0  # a hub CoM off T's origin, so that every inertial column is exercised
     p0[10:] = [1.1, 0.9, 1.3, 0.95, 1.05, 0.8, 1.2, 0.7]
-    system.set_parameters(p0)
+    system = system.with_parameters(p0)
     q, v, t = _excited_state(system)
     ddq, _, _, Minv = ref.derivatives(system, q, v, t)
     analytic = ref.ddq_dparams(system, q, v, ddq, Minv)
-    fd = _fd_columns(system, lambda: ref.acceleration(system, q, v, t))
+    fd = _fd_columns(system, lambda s: ref.acceleration(s, q, v, t))
     assert np.all(_column_errors(analytic, fd) < 1e-6)
     assert np.abs(analytic).max(axis=0).min() > 0  # no parameter is invisible in this state
 
@@ -112,11 +111,14 @@ def test_step_and_measurement_derivatives(envisat):
     x = np.concatenate([q, v])
     pred = model.predict(x, t, 0.1, jacobians=True)
 
-    def step():
+    def step(perturbed):
+        model.set_params(perturbed.parameters())
         p = model.predict(x, t, 0.1)
         return np.concatenate([model.local(p.x, pred.x), p.z])
 
-    fd = _fd_columns(model.system, step)
+    nominal = model.system
+    fd = _fd_columns(nominal, step)
+    model.set_params(nominal.parameters())
     n = model.n
     assert np.all(_column_errors(pred.G, fd[:n]) < 1e-6)
     # the measurement at the predicted state moves with the state and with the parameters
@@ -127,14 +129,38 @@ def test_step_and_measurement_derivatives(envisat):
 
 def test_filter_copy_does_not_touch_the_callers_system(envisat):
     system = build_system(envisat)
-    before = system.model.inertias[system._t_joint].toDynamicParameters().copy()
+    before = system.joint_inertia(system.target_joint)
     model = NativeProcessModel(system, 0.1)
     p = model.params
     p[0] += 100.0
     p[-1] = 3.0
     model.set_params(p)
-    np.testing.assert_array_equal(system.model.inertias[system._t_joint].toDynamicParameters(), before)
+    np.testing.assert_array_equal(system.joint_inertia(system.target_joint), before)
     np.testing.assert_array_equal(system.parameters()[-1], 1.0)
+    np.testing.assert_array_equal(model.system.parameters(), p)  # the model's description follows its instance
+    with pytest.raises(AttributeError, match="immutable"):
+        system.B = None
+
+
+def test_copies_share_the_model_and_nothing_mutable(envisat):
+    """A filter's copy runs its own instance over the same constant compiled model: parameters, input
+    offset and warm start are its own, and a prediction does not depend on the other copy's history."""
+    model = NativeProcessModel(build_system(envisat), 0.1)
+    x = model.initial_state()
+    other = model.copy()
+    assert other.plant.model is model.plant.model and other.plant is not model.plant
+    first = model.predict(x, 10.0, 0.1, jacobians=True)
+    p = other.params
+    p[-1] = 2.0
+    other.set_params(p)
+    other.plant.set_input_offset(np.full(other.plant.nu, 5.0))
+    other.predict(x, 10.0, 0.1)
+    assert model.params[-1] == 1.0
+    again = model.predict(x, 10.0, 0.1, jacobians=True)
+    np.testing.assert_array_equal(again.x, first.x)
+    np.testing.assert_array_equal(again.F, first.F)
+    third = other.copy()  # the copy takes the parameters, not the history
+    np.testing.assert_array_equal(third.params, other.params)
 
 
 @pytest.mark.parametrize("index,value,match", [(0, -5.0, "positive mass"), (4, -1e6, "positive definite"),
@@ -144,4 +170,8 @@ def test_non_physical_parameters_are_refused(envisat, index, value, match):
     p = system.parameters()
     p[index] = value
     with pytest.raises(DomainError, match=match):
-        system.set_parameters(p)
+        system.with_parameters(p)
+    with pytest.raises(DomainError, match=match):  # a filter's model refuses it too, naming it
+        NativeProcessModel(system, 0.1).set_params(p)
+    with pytest.raises(DomainError, match="parameter"):  # and so does the core, at its own boundary
+        CompiledPlant(system).set_params(p)

@@ -314,26 +314,19 @@ def cmd_bench(args) -> int:
           f"{result['predict_ms_n50']:.2f} ms (N = 50)")
     print(f"  core compile {result['compile_s']:.1f} s; main job (warm) {result.get('main_job_s', float('nan')):.1f} s")
     m = result["machine"]
-    _echo(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, Pinocchio {m['pinocchio']}")
+    _echo(f"  machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, {m['compiler']}")
     return 0
 
 
 def cmd_accuracy(args) -> int:
-    from postcapture.studies.accuracy import integrator_accuracy
+    from postcapture.studies.accuracy import accuracy_table, integrator_accuracy
 
     with _display(args, "bench --accuracy") as shown:
         result = integrator_accuracy(args.scenario, duration=args.duration, task_progress=shown.task)
     if args.json:
         _print_json(result)
         return 0
-    print(f"largest deviation from {result['reference']} over {result['duration_s']:g} s")
-    for label in ("forced", "free"):
-        print(f"  {label}:")
-        print(f"    {'method':<16}{'attitude':>10}{'joints':>9}{'tip':>9}{'accel':>9}{'arm ddq':>9}{'rtf':>7}")
-        print(f"    {'':<16}{'(arcsec)':>10}{'(rad)':>9}{'(rel)':>9}{'(rel)':>9}{'(rel)':>9}{'(CPU)':>7}")
-        for name, r in result[label].items():
-            print(f"    {name:<16}{r['attitude_arcsec']:>10.3g}{r['joint_rad']:>9.1e}{r['tip_rel']:>9.1e}"
-                  f"{r['accel_rel']:>9.1e}{r['arm_ddq_rel']:>9.1e}{r['rtf']:>7.0f}")
+    print(accuracy_table(result))  # the Markdown table BENCHMARKS.md quotes, with the machine
     return 0
 
 

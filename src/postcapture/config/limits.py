@@ -8,8 +8,8 @@ A run is refused, with a message naming the limit and how to raise it, when its 
 
 The estimates are deliberately simple and conservative (they count what dominates):
 
-* the multibody model itself (Pinocchio's workspace) takes about ``64 nv^3`` bytes at its peak (measured:
-  0.2, 0.73 and 4.6 GB at nv = 115, 215 and 415), so a few hundred panel segments already need gigabytes;
+* the multibody model itself (an instance of the compiled core: its scratch arena for the step
+  Jacobians) takes about ``512 nv^2`` bytes (measured: 17 MB of address space at nv = 175);
 * a truth simulation keeps ``n_samples = duration / sample_period + 1`` columns of
   ``q, v, ddq`` and the recorded outputs, ``8 (nq + 2 nv + 75)`` bytes each, and its NetCDF file is a
   second copy; each implicit step (SDIRK) factorises dense ``nv x nv`` matrices, about
@@ -170,13 +170,13 @@ def _step_cpu(nv: int, integrator: str) -> float:
 
 
 def _model_bytes(nv: int) -> float:
-    return 64.0 * nv**3 + 16 * 2**20
+    return 512.0 * nv**2 + 4 * 2**20  # the compiled core's instance: its scratch arena grows as nv^2
 
 
 def estimate_model(nv: int) -> Estimate:
     """Estimate of building the multibody model of ``nv`` degrees of freedom."""
     return Estimate("building the model", _model_bytes(nv), 0.0,
-                    memory_detail=f"{nv} degrees of freedom, the workspace growing as nv^3",
+                    memory_detail=f"{nv} degrees of freedom, the workspace growing as nv^2",
                     hint="use fewer panel segments")
 
 

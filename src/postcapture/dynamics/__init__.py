@@ -1,2 +1,2 @@
-"""Multibody plant: the Pinocchio model and springs (System), the compiled core that computes the plant's
-equations, integrators and exact derivatives (core, csrc/), truth simulation."""
+"""Multibody plant: the tree as plain data and the immutable description (System), the compiled core that
+computes the plant's equations, integrators and exact derivatives (core, engine, csrc/), truth simulation."""

@@ -8,13 +8,13 @@ in time to the whole run, and returns the largest ``h`` whose estimate is within
 steps divide the sample period, so outputs stay on the sample grid.
 
 A tolerance-driven truth accepts Newton's iterations at :func:`newton_for` its tolerance (for 1 arcsec:
-about 1e-6 relative and 1e-9 absolute, against the core's default 1e-10 and 1e-15): over the default
-300 s run the attitude error against RK4 moves from 0.397 to 0.403 arcsec, and the run is 1.6x
-faster (BENCHMARKS.md).
+about 1e-6 relative and 1e-9 absolute, against the core's default 1e-10 and 1e-15), which makes the run
+about 1.6x faster for a negligible change of its error.
 
-L-stable methods damp the arm's stiff modes (213 Hz in the default scenario) unless the step resolves
-them; that part of the error (about 0.16 arcsec over the default 300 s) is not seen by step halving,
-which is why the default tolerance keeps a margin (see BENCHMARKS.md for the measured errors).
+An explicit method (RK4) is stable only below the plant's stability limit
+(:mod:`postcapture.dynamics.stability`); the halving then starts from the first step below it. The
+errors measured against RK4 at 0.25 ms over the default 300 s run are in BENCHMARKS.md (SDIRK4 at
+0.025 s: 0.10 arcsec, converging at order 4 with the step).
 """
 
 from __future__ import annotations
@@ -54,6 +54,25 @@ def _mean_rates(q_BN: np.ndarray, period: float) -> np.ndarray:
     from postcapture.core.rotations import box_minus
 
     return box_minus(q_BN[:, 1:], q_BN[:, :-1]) / period
+
+
+def _first_step(system: System, q0, v0, method: str, sample_period: float, max_halvings: int) -> float:
+    """``sample_period / 2^k`` for the smallest k at which the method is stable and the step no longer than
+    ``MAX_FIRST_STEP`` (an implicit stage's Newton iteration is well-posed there)."""
+    from postcapture.dynamics.core import CompiledPlant
+    from postcapture.dynamics.stability import StepTooLargeError, stability_limit
+
+    limit, _ = stability_limit(CompiledPlant(system, method), q0, v0)
+    h = sample_period
+    while h > MAX_FIRST_STEP:
+        h /= 2
+    for _ in range(max_halvings + 1):
+        if h <= limit:
+            return h
+        h /= 2
+    raise StepTooLargeError(f"step: {method} needs a step <= {limit:.4g} s on this model, below the "
+                            f"{max_halvings} halvings of the sample period {sample_period} s that choose_step tries: "
+                            "use an L-stable method (sdirk4)", step=h, limit=limit)
 
 
 def choose_step(
@@ -101,14 +120,13 @@ def choose_step(
     if not tolerance > 0:
         raise ValueError(f"tolerance: expected a positive angle in rad, found {tolerance}")
     p = TABLEAUX[method].order
+    h_first = _first_step(system, q0, v0, method, sample_period, max_halvings)
     window = min(pilot, duration)
     window = max(sample_period, round(window / sample_period) * sample_period)
     off = system.nq - system.nv
     newton = newton_for(tolerance)
-    h = sample_period
-    while h > MAX_FIRST_STEP:  # the first trial step: no larger than an implicit step stays well-posed
-        h /= 2
-    coarse = _run(system, q0, v0, method, h, sample_period, window, newton)
+    coarse = _run(system, q0, v0, method, h_first, sample_period, window, newton)
+    h = h_first
     for _ in range(max_halvings):
         h /= 2
         fine = _run(system, q0, v0, method, h, sample_period, window, newton)

@@ -1,29 +1,31 @@
-"""Build the Pinocchio multibody tree of a scenario.
+"""Build the multibody tree of a scenario (:class:`~postcapture.dynamics.tree.Tree`, plain data).
 
 The tree: a free-flyer root for the chaser bus (joint ``chaser``, frame B); its panels (a root torsion
 hinge about the panel's x axis, then one bending hinge about y per segment); the arm joints (each
 optionally with a Spong rotor joint beside it); the target hub rigidly appended to the last arm link;
-the target's panels. Springs and dampers are not part of the Pinocchio model: they are collected here
-as a :class:`SpringSet` and added as joint torques by :class:`postcapture.dynamics.system.System`.
+the target's panels. Springs and dampers are not part of the tree: they are collected here
+as a :class:`SpringSet` and added as joint torques by the compiled core.
 
 Variants: ``flexible`` (as described), ``stiff`` (every spring k = 1e7 N m/rad, the reference's
-"rigid" mimic), ``rigid`` (every joint but the root locked, through ``pinocchio.buildReducedModel``).
+"rigid" mimic), ``rigid`` (every joint but the root locked at rest, :func:`~postcapture.dynamics.tree.lock_joints`).
+The tests build the same trees with Pinocchio's own API and hold these to them.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from postcapture.config.schema import Panel, Scenario
 from postcapture.dynamics.bodies import MassProperties, hub_properties, panel_properties, segment_properties
+from postcapture.dynamics.parameters import dynamic_parameters
+from postcapture.dynamics.tree import Tree, TreeBuilder, compose, lock_joints
 
 __all__ = ["STIFF_K", "PanelLayout", "Layout", "SpringSet", "Assembly", "assemble", "assemble_panel_chain"]
 
 STIFF_K = 1.0e7  # N m/rad, the reference's stiffness for its "rigid" model
-_AXES = {"x": pin.JointModelRX, "y": pin.JointModelRY, "z": pin.JointModelRZ}
+_AXES = {"x": "rx", "y": "ry", "z": "rz"}
 
 
 @dataclass(frozen=True)
@@ -56,186 +58,199 @@ class Layout:
     target_hub: MassProperties | None  # in the T frame
 
 
-@dataclass
+@dataclass(frozen=True)
 class SpringSet:
     """Linear springs and dampers on the elastic coordinates ``e`` (all coordinates but the root's).
 
     Spring j has deflection ``a_j . e - r_j``, stiffness ``k_j`` and damping ``d_j`` on ``a_j . de/dt``.
     ``groups[j]`` says which scale of the parameter vector (:mod:`postcapture.dynamics.parameters`)
     multiplies it: ``(panel index, "bending" | "torsion")``, ``"arm"``, or None (a Spong servo).
+    Immutable: :meth:`add` returns a new set.
     """
 
-    rows: list[dict[int, float]] = field(default_factory=list)
-    k: list[float] = field(default_factory=list)
-    d: list[float] = field(default_factory=list)
-    rest: list[float] = field(default_factory=list)
-    names: list[str] = field(default_factory=list)
-    groups: list = field(default_factory=list)
+    rows: tuple = ()
+    k: tuple = ()
+    d: tuple = ()
+    rest: tuple = ()
+    names: tuple = ()
+    groups: tuple = ()
 
-    def add(self, name: str, row: dict[int, float], k: float, d: float, rest: float = 0.0, group=None) -> None:
-        """Add one spring-damper."""
-        self.names.append(name)
-        self.rows.append(row)
-        self.k.append(float(k))
-        self.d.append(float(d))
-        self.rest.append(float(rest))
-        self.groups.append(group)
+    def add(self, name: str, row: dict[int, float], k: float, d: float, rest: float = 0.0, group=None) -> "SpringSet":
+        """This set with one more spring-damper."""
+        return SpringSet(self.rows + (tuple(sorted(row.items())),), self.k + (float(k),), self.d + (float(d),),
+                         self.rest + (float(rest),), self.names + (name,), self.groups + (group,))
+
+    def without_damping(self) -> "SpringSet":
+        """The same springs with every damper zero."""
+        return SpringSet(self.rows, self.k, (0.0,) * len(self.d), self.rest, self.names, self.groups)
 
     def matrix(self, n_e: int) -> np.ndarray:
         """The matrix A with rows a_j, shape (n_springs, n_e)."""
         A = np.zeros((len(self.rows), n_e))
         for j, row in enumerate(self.rows):
-            for i, c in row.items():
+            for i, c in row:
                 A[j, i] = c
         return A
 
 
-@dataclass
+@dataclass(frozen=True)
 class Assembly:
-    """The Pinocchio model, its layout and springs: what :class:`System` is built from."""
+    """The tree, its layout and springs: what :class:`~postcapture.dynamics.system.System` is built from."""
 
-    model: pin.Model
+    tree: Tree
     layout: Layout
     springs: SpringSet
     q_rest: np.ndarray  # configuration with every joint at rest and the root at the origin
 
 
-def _se3(R, p) -> pin.SE3:
-    return pin.SE3(np.asarray(R, dtype=float), np.asarray(p, dtype=float))
+def _pose(pose) -> tuple[np.ndarray, np.ndarray]:
+    return np.asarray(pose.rotation(), dtype=float), np.asarray(pose.translation(), dtype=float)
 
 
-def _pose(pose) -> pin.SE3:
-    return _se3(pose.rotation(), pose.translation())
+def _inertia(props: MassProperties) -> np.ndarray:
+    return dynamic_parameters(props)
 
 
-def _inertia(props: MassProperties) -> pin.Inertia:
-    return pin.Inertia(props.mass, props.com, props.inertia)
+_I3, _O3 = np.eye(3), np.zeros(3)
 
 
 class _Builder:
     def __init__(self, name: str, stiff: bool, scenario: Scenario | None = None, n_root: int = 6):
         self.sc = scenario
         self.stiff = stiff
-        self.model = pin.Model()
-        self.model.name = name
-        # In orbit the whole stack is in free fall: no gravity in the model (Pinocchio defaults to -9.81 z).
-        self.model.gravity = pin.Motion.Zero()
+        self.tree = TreeBuilder(name)  # no gravity: in orbit the whole stack is in free fall
         self.springs = SpringSet()
-        self.rest: dict[int, float] = {}  # joint id -> rest angle
-        self.body_frame: dict[int, int] = {0: 0}  # joint id -> its body frame (the universe's is 0)
+        self.rest: dict[int, float] = {}  # joint index -> rest angle
         self.n_root = n_root  # velocity coordinates of the root joint
+        self.nv = 0  # velocity coordinates so far
+        self.iv: dict[int, int] = {}  # joint index -> velocity index
         self.n_panels = 0  # panels built so far (their index in the parameter vector)
 
     def k(self, value: float) -> float:
         return STIFF_K if self.stiff else value
 
-    def joint(self, parent: int, jmodel, placement: pin.SE3, name: str, inertia: pin.Inertia | None) -> int:
-        m = self.model
-        jid = m.addJoint(parent, jmodel, placement, name)
-        fid = m.addJointFrame(jid, self.body_frame.get(parent, 0))
-        if inertia is not None:
-            m.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
-        self.body_frame[jid] = m.addBodyFrame(name + "_body", jid, pin.SE3.Identity(), fid)
+    def joint(self, parent: int, kind: str, placement, name: str, inertia=None) -> int:
+        jid = self.tree.add_joint(parent, kind, placement[0], placement[1], name, inertia)
+        self.iv[jid] = self.nv
+        self.nv += 6 if kind == "free_flyer" else 1
         return jid
 
-    def frame(self, name: str, joint: int, placement: pin.SE3) -> int:
-        f = pin.Frame(name, joint, self.body_frame[joint], placement, pin.FrameType.OP_FRAME)
-        return self.model.addFrame(f)
+    def frame(self, name: str, joint: int, placement) -> None:
+        self.tree.add_frame(name, joint, placement[0], placement[1])
 
     def e(self, jid: int) -> int:
         """Elastic-coordinate index of a revolute joint (its velocity index minus the root's)."""
-        return self.model.joints[jid].idx_v - self.n_root
+        return self.iv[jid] - self.n_root
 
-    def panel(self, host_joint: int, mount: pin.SE3, panel: Panel, host: str) -> dict:
+    def spring(self, name: str, row: dict, k: float, d: float, rest: float = 0.0, group=None) -> None:
+        self.springs = self.springs.add(name, row, k, d, rest, group)
+
+    def panel(self, host_joint: int, mount, panel: Panel, host: str) -> dict:
         n = panel.segments
         l = panel.length / n
         seg = _inertia(segment_properties(panel))
         self.frame(f"{panel.name}_root", host_joint, mount)
-        tor = self.joint(host_joint, pin.JointModelRX(), mount, f"{panel.name}_torsion", None)
-        kt = self.k(panel.torsion_stiffness)
+        tor = self.joint(host_joint, "rx", mount, f"{panel.name}_torsion")
         index = self.n_panels
         self.n_panels += 1
-        self.springs.add(f"{panel.name}_torsion", {self.e(tor): 1.0}, kt, panel.damping_beta * panel.torsion_stiffness,
-                         group=(index, "torsion"))
+        self.spring(f"{panel.name}_torsion", {self.e(tor): 1.0}, self.k(panel.torsion_stiffness),
+                    panel.damping_beta * panel.torsion_stiffness, group=(index, "torsion"))
         parent, bend = tor, []
         for i in range(n):
-            placement = _se3(np.eye(3), [l if i else 0.0, 0.0, 0.0])
-            jid = self.joint(parent, pin.JointModelRY(), placement, f"{panel.name}_bend_{i + 1}", seg)
+            jid = self.joint(parent, "ry", (_I3, [l if i else 0.0, 0.0, 0.0]), f"{panel.name}_bend_{i + 1}", seg)
             k_i = panel.bending_stiffness[i]
-            self.springs.add(f"{panel.name}_bend_{i + 1}", {self.e(jid): 1.0}, self.k(k_i), panel.damping_beta * k_i,
-                             group=(index, "bending"))
+            self.spring(f"{panel.name}_bend_{i + 1}", {self.e(jid): 1.0}, self.k(k_i), panel.damping_beta * k_i,
+                        group=(index, "bending"))
             bend.append(jid)
             parent = jid
-        self.frame(f"{panel.name}_tip", parent, _se3(np.eye(3), [l, 0.0, 0.0]))
+        self.frame(f"{panel.name}_tip", parent, (_I3, [l, 0.0, 0.0]))
         return {"name": panel.name, "host": host, "length": panel.length, "segments": n, "torsion": tor, "bending": bend}
 
-    def build(self):
-        sc = self.sc
-        m = self.model
-        chaser = sc.chaser
+    def chaser(self):
+        chaser = self.sc.chaser
         c_mounts = [(p.mount.rotation(), p.mount.translation(), panel_properties(p)) for p in chaser.panels]
         if chaser.properties_include_panels:
             c_hub = hub_properties(chaser.mass, chaser.inertia, c_mounts, "chaser")
         else:
             c_hub = MassProperties(chaser.mass, np.zeros(3), chaser.inertia)
-        root = self.joint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "chaser", _inertia(c_hub))
-        self.frame("accelerometer", root, _se3(np.eye(3), chaser.accelerometer_position))
-        panels = [self.panel(root, _pose(p.mount), p, "chaser") for p in chaser.panels]
+        root = self.joint(-1, "free_flyer", (_I3, _O3), "chaser", _inertia(c_hub))
+        self.frame("accelerometer", root, (_I3, chaser.accelerometer_position))
+        return root, [self.panel(root, _pose(p.mount), p, "chaser") for p in chaser.panels]
 
-        arm_j, rotor_j, motor_j = [], [], []
+    def arm_joint(self, i: int, js, parent: int):
+        placement = _pose(js.origin)
+        if i == 0:
+            placement = compose(*_pose(self.sc.arm.base), *placement)
+        rotor = None
+        if js.rotor_inertia is not None:
+            axis = np.eye(3)["xyz".index(js.axis)]
+            rotor_I = _inertia(MassProperties(0.0, np.zeros(3), js.rotor_inertia * np.outer(axis, axis)))
+            rotor = self.joint(parent, _AXES[js.axis], placement, f"arm_{i + 1}_rotor", rotor_I)
+        link_I = _inertia(MassProperties(js.mass, js.com, js.inertia))
+        jid = self.joint(parent, _AXES[js.axis], placement, f"arm_{i + 1}", link_I)
+        self.rest[jid] = js.rest_angle
+        if rotor is None:
+            self.spring(f"arm_{i + 1}", {self.e(jid): 1.0}, self.k(js.stiffness), js.damping, js.rest_angle, group="arm")
+        else:
+            self.rest[rotor] = js.rest_angle
+            self.spring(f"arm_{i + 1}", {self.e(jid): 1.0, self.e(rotor): -1.0}, self.k(js.stiffness), js.damping,
+                        group="arm")
+            ks = js.servo_stiffness if js.servo_stiffness is not None else js.stiffness
+            ds = js.servo_damping if js.servo_damping is not None else js.damping
+            self.spring(f"arm_{i + 1}_servo", {self.e(rotor): 1.0}, self.k(ks), ds, js.rest_angle)
+        return jid, rotor
+
+    def target(self, last: int, tool):
+        tg = self.sc.target
+        X_JT = compose(*tool, *_pose(tg.grasp_to_com))
+        t_mounts = [(p.mount.rotation(), p.mount.translation(), panel_properties(p)) for p in tg.panels]
+        if tg.properties_include_panels:
+            hub = hub_properties(tg.mass, tg.inertia, t_mounts, "target")
+        else:
+            hub = MassProperties(tg.mass, np.zeros(3), tg.inertia)
+        self.tree.append_inertia(last, _inertia(hub), *X_JT)
+        self.frame("target", last, X_JT)
+        panels = [self.panel(last, compose(*X_JT, *_pose(p.mount)), p, "target") for p in tg.panels]
+        return hub, sum(p.mass for p in tg.panels), panels
+
+    def build(self):
+        sc = self.sc
+        root, panels = self.chaser()
+        arm_j, rotor_j = [], []
         target_hub, target_panel_mass = None, 0.0
         if sc.arm is not None:
             parent = root
             for i, js in enumerate(sc.arm.joints):
-                placement = _pose(js.origin)
-                if i == 0:
-                    placement = _pose(sc.arm.base) * placement
-                rotor = None
-                if js.rotor_inertia is not None:
-                    axis = np.eye(3)["xyz".index(js.axis)]
-                    rotor_I = pin.Inertia(0.0, np.zeros(3), js.rotor_inertia * np.outer(axis, axis))
-                    rotor = self.joint(parent, _AXES[js.axis](), placement, f"arm_{i + 1}_rotor", rotor_I)
-                link_I = pin.Inertia(js.mass, np.asarray(js.com, dtype=float), np.asarray(js.inertia, dtype=float))
-                jid = self.joint(parent, _AXES[js.axis](), placement, f"arm_{i + 1}", link_I)
-                self.rest[jid] = js.rest_angle
-                if rotor is None:
-                    self.springs.add(f"arm_{i + 1}", {self.e(jid): 1.0}, self.k(js.stiffness), js.damping, js.rest_angle,
-                                     group="arm")
-                else:
-                    self.rest[rotor] = js.rest_angle
-                    row = {self.e(jid): 1.0, self.e(rotor): -1.0}
-                    self.springs.add(f"arm_{i + 1}", row, self.k(js.stiffness), js.damping, group="arm")
-                    ks = js.servo_stiffness if js.servo_stiffness is not None else js.stiffness
-                    ds = js.servo_damping if js.servo_damping is not None else js.damping
-                    self.springs.add(f"arm_{i + 1}_servo", {self.e(rotor): 1.0}, self.k(ks), ds, js.rest_angle)
-                arm_j.append(jid)
+                parent, rotor = self.arm_joint(i, js, parent)
+                arm_j.append(parent)
                 rotor_j.append(rotor)
-                motor_j.append(rotor if rotor is not None else jid)
-                parent = jid
-            last = parent
             tool = _pose(sc.arm.tool)
-            self.frame("grasp", last, tool)
+            self.frame("grasp", parent, tool)
             if sc.target is not None:
-                tg = sc.target
-                X_JT = tool * _pose(tg.grasp_to_com)
-                t_mounts = [(p.mount.rotation(), p.mount.translation(), panel_properties(p)) for p in tg.panels]
-                if tg.properties_include_panels:
-                    target_hub = hub_properties(tg.mass, tg.inertia, t_mounts, "target")
-                else:
-                    target_hub = MassProperties(tg.mass, np.zeros(3), tg.inertia)
-                target_panel_mass = sum(p.mass for p in tg.panels)
-                m.appendBodyToJoint(last, X_JT.act(_inertia(target_hub)), pin.SE3.Identity())
-                self.frame("target", last, X_JT)
-                panels += [self.panel(last, X_JT * _pose(p.mount), p, "target") for p in tg.panels]
-
-        q_rest = pin.neutral(m)
+                target_hub, target_panel_mass, more = self.target(parent, tool)
+                panels += more
+        tree = self.tree.build()
+        q_rest = tree.neutral()
         for jid, angle in self.rest.items():
-            q_rest[m.joints[jid].idx_q] = angle
-        return root, panels, arm_j, rotor_j, motor_j, target_hub, target_panel_mass, q_rest
+            q_rest[tree.joints[jid].iq] = angle
+        return tree, panels, arm_j, rotor_j, target_hub, target_panel_mass, q_rest
 
 
-def _v(model: pin.Model, jid: int | None) -> int | None:
-    return None if jid is None else model.joints[jid].idx_v
+def _frozen(a) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def _panel_layouts(tree: Tree, panels: list, locked: bool) -> tuple:
+    def v(jid):
+        return None if jid is None else tree.joints[jid].iv
+
+    return tuple(
+        PanelLayout(p["name"], p["host"], p["length"], p["segments"], None if locked else v(p["torsion"]),
+                    () if locked else tuple(v(j) for j in p["bending"]), f"{p['name']}_root", f"{p['name']}_tip")
+        for p in panels
+    )
 
 
 def assemble(scenario: Scenario, variant: str = "flexible") -> Assembly:
@@ -255,33 +270,22 @@ def assemble(scenario: Scenario, variant: str = "flexible") -> Assembly:
     if variant not in ("flexible", "stiff", "rigid"):
         raise ValueError(f"variant: expected one of flexible, stiff, rigid, found {variant!r}")
     b = _Builder(scenario.name, stiff=(variant == "stiff"), scenario=scenario)
-    root, panels, arm_j, rotor_j, motor_j, target_hub, t_panel_mass, q_rest = b.build()
-    model = b.model
+    tree, panels, arm_j, rotor_j, target_hub, t_panel_mass, q_rest = b.build()
     springs = b.springs
-    if variant == "rigid":
-        locked = list(range(2, model.njoints))
-        model = pin.buildReducedModel(model, locked, q_rest)
-        model.gravity = pin.Motion.Zero()
+    motor_j = [r if r is not None else j for j, r in zip(arm_j, rotor_j)]
+    rigid = variant == "rigid"
+    layout_panels = _panel_layouts(tree, panels, rigid)
+
+    def v(jid):
+        return None if jid is None else tree.joints[jid].iv
+
+    arm_v = () if rigid else tuple(v(j) for j in arm_j)
+    motor_v = () if rigid else tuple(v(j) for j in motor_j)
+    rotor_v = () if rigid else tuple(v(j) for j in rotor_j)
+    if rigid:
+        tree = lock_joints(tree, q_rest)
         springs = SpringSet()
-        q_rest = pin.neutral(model)
-        layout_panels = tuple(
-            PanelLayout(p["name"], p["host"], p["length"], p["segments"], None, (), f"{p['name']}_root", f"{p['name']}_tip")
-            for p in panels
-        )
-        arm_v: tuple = ()
-        motor_v: tuple = ()
-        rotor_v: tuple = ()
-    else:
-        layout_panels = tuple(
-            PanelLayout(
-                p["name"], p["host"], p["length"], p["segments"], _v(model, p["torsion"]),
-                tuple(_v(model, j) for j in p["bending"]), f"{p['name']}_root", f"{p['name']}_tip",
-            )
-            for p in panels
-        )
-        arm_v = tuple(_v(model, j) for j in arm_j)
-        motor_v = tuple(_v(model, j) for j in motor_j)
-        rotor_v = tuple(_v(model, j) for j in rotor_j)
+        q_rest = tree.neutral()
     layout = Layout(
         variant=variant,
         free_flyer=True,
@@ -294,7 +298,7 @@ def assemble(scenario: Scenario, variant: str = "flexible") -> Assembly:
         target_panel_mass=t_panel_mass,
         target_hub=target_hub,
     )
-    return Assembly(model=model, layout=layout, springs=springs, q_rest=q_rest)
+    return Assembly(tree=tree, layout=layout, springs=springs, q_rest=_frozen(q_rest))
 
 
 def assemble_panel_chain(panel: Panel, variant: str = "flexible") -> Assembly:
@@ -305,7 +309,8 @@ def assemble_panel_chain(panel: Panel, variant: str = "flexible") -> Assembly:
     if variant not in ("flexible", "stiff"):
         raise ValueError(f"variant: expected flexible or stiff for a panel chain, found {variant!r}")
     b = _Builder(panel.name, stiff=(variant == "stiff"), n_root=0)
-    p = b.panel(0, pin.SE3.Identity(), panel, "base")
+    p = b.panel(-1, (_I3, _O3), panel, "base")
+    tree = b.tree.build()
     layout = Layout(
         variant=variant,
         free_flyer=False,
@@ -313,14 +318,9 @@ def assemble_panel_chain(panel: Panel, variant: str = "flexible") -> Assembly:
         arm_v=(),
         motor_v=(),
         rotor_v=(),
-        panels=(
-            PanelLayout(
-                panel.name, "base", panel.length, panel.segments, _v(b.model, p["torsion"]),
-                tuple(_v(b.model, j) for j in p["bending"]), f"{panel.name}_root", f"{panel.name}_tip",
-            ),
-        ),
+        panels=_panel_layouts(tree, [p], False),
         has_target=False,
         target_panel_mass=0.0,
         target_hub=None,
     )
-    return Assembly(model=b.model, layout=layout, springs=b.springs, q_rest=pin.neutral(b.model))
+    return Assembly(tree=tree, layout=layout, springs=b.springs, q_rest=_frozen(tree.neutral()))

@@ -2,14 +2,13 @@
 
 The scenario's profiles (:mod:`postcapture.config.excitation`, validated data) are packed here by
 :func:`pack_profiles` into the compiled core's layout and evaluated by the core's C code
-(``pc_inputs_eval`` in ``csrc/pc_dynamics.c``), the one implementation of the profile formulas: the
+(``pc_inputs_eval`` in ``csrc/pc_inputs.c``), the one implementation of the profile formulas: the
 Python reference path reads them through :class:`InputSchedule`, the compiled plant and exported FMUs
 through the same function inside the model.
 """
 
 from __future__ import annotations
 
-import ctypes
 import math
 from collections.abc import Sequence
 
@@ -47,8 +46,8 @@ def pack_profiles(profiles, n_arm: int):
     return ints, dbl, table_t, table_v
 
 
-def _ptr(a: np.ndarray):
-    return a.ctypes.data_as(ctypes.c_void_p) if a.size else None
+def _or_none(a: np.ndarray):
+    return a if a.size else None
 
 
 class InputSchedule:
@@ -81,13 +80,11 @@ class InputSchedule:
         u = np.zeros((t.size, self.n_inputs))
         if not self.profiles or not t.size:
             return u
-        from postcapture.dynamics.compiled import load_library
+        from postcapture.dynamics.engine import engine
 
-        status = load_library().pc_inputs_eval(
-            len(self.profiles), _ptr(self._ints), _ptr(self._dbl), self._table_t.size, _ptr(self._table_t),
-            _ptr(self._table_v), self.n_inputs, t.size, _ptr(t), int(bool(left)), _ptr(u))
-        if status != 0:
-            raise ValueError(f"excitation profiles rejected by the compiled core (status {status})")
+        engine().inputs_eval(len(self.profiles), _or_none(self._ints), _or_none(self._dbl), self._table_t.size,
+                             _or_none(self._table_t), _or_none(self._table_v), self.n_inputs, t.size, t,
+                             int(bool(left)), u)
         return u
 
     def __call__(self, t: float, left: bool = False) -> np.ndarray:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from postcapture.core.errors import DomainError
 from postcapture.dynamics.bodies import MassProperties, parallel_axis
 
 __all__ = [
@@ -31,6 +32,8 @@ __all__ = [
     "mass_properties",
     "transform_matrix",
     "dmass_direction",
+    "check_parameters",
+    "with_target_mass",
 ]
 
 INERTIAL_NAMES = ("m", "mc_x", "mc_y", "mc_z", "I_xx", "I_xy", "I_yy", "I_xz", "I_yz", "I_zz")
@@ -102,7 +105,47 @@ def transform_matrix(R, p) -> np.ndarray:
 
 
 def dmass_direction(pi) -> np.ndarray:
-    """``d pi / d m`` at a fixed centre of mass and a fixed inertia about it, shape (10,)."""
-    props = mass_properties(pi)
-    c = props.com
-    return np.concatenate([[1.0], c, _sym(parallel_axis(1.0, c))])
+    """``d pi / d m`` at a fixed centre of mass and a fixed inertia about it, shape (10,):
+    ``[1, c, |c|^2 I - c c^T]`` with ``c = (m c) / m`` (a filter step calls it: plain arithmetic)."""
+    m = float(pi[0])
+    cx, cy, cz = float(pi[1]) / m, float(pi[2]) / m, float(pi[3]) / m
+    cc = cx * cx + cy * cy + cz * cz
+    return np.array([1.0, cx, cy, cz, cc - cx * cx, -cx * cy, cc - cy * cy, -cx * cz, -cy * cz, cc - cz * cz])
+
+
+def check_parameters(names, p, has_target: bool) -> np.ndarray:
+    """``p`` as a validated parameter vector named ``names`` (a read-write copy).
+
+    Raises
+    ------
+    DomainError
+        If ``p`` has the wrong length, is not finite, or gives a non-physical target (mass <= 0, inertia
+        about its centre of mass not positive definite) or a negative scale.
+    """
+    p = np.array(p, dtype=float).reshape(-1)
+    n_p = len(names)
+    if p.shape != (n_p,) or not np.all(np.isfinite(p)):
+        raise DomainError(f"parameters: expected {n_p} finite numbers ({', '.join(names)}), found {p}")
+    n_i = 10 if has_target else 0
+    if np.any(p[n_i:] < 0.0):
+        bad = [n for n, x in zip(names[n_i:], p[n_i:]) if x < 0]
+        raise DomainError(f"parameters: expected scales >= 0, found negative {', '.join(bad)}")
+    if n_i:
+        props = mass_properties(p[:10]) if p[0] > 0 else None
+        if props is None or np.linalg.eigvalsh(props.inertia)[0] <= 0.0:
+            raise DomainError(f"parameters: expected a target hub with positive mass and positive definite "
+                              f"inertia about its centre of mass, found {p[:10]}")
+    return p
+
+
+def with_target_mass(p, total_mass: float, panel_mass: float) -> np.ndarray:
+    """The parameter vector with the target's total mass (hub plus ``panel_mass`` of panels) set to
+    ``total_mass``: the hub's mass moves at a fixed centre of mass and a fixed inertia about it (the one
+    place this split is computed)."""
+    m_hub = float(total_mass) - panel_mass
+    if not m_hub > 0.0:
+        raise ValueError(f"target_mass: expected more than the panels' {panel_mass} kg, found {total_mass}")
+    p = np.array(p, dtype=float)
+    props = mass_properties(p[:10])
+    p[:10] = dynamic_parameters(MassProperties(m_hub, props.com, props.inertia))
+    return p

@@ -9,134 +9,115 @@ is one call of the core: the steps, the measurement and, on request, every Jacob
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
 from postcapture.core.prediction import Prediction
 from postcapture.core.rotations import quat_from_pinocchio
 from postcapture.dynamics.core import CompiledPlant
-from postcapture.dynamics.parameters import dmass_direction
+from postcapture.dynamics.parameters import check_parameters, dmass_direction, with_target_mass
 from postcapture.dynamics.system import System
 
 __all__ = ["NativeProcessModel"]
 
 
 class NativeProcessModel:
-    """A filter's own copy of the plant (own model, own parameters and target mass).
+    """A filter's own plant: its own instance (parameters, warm start) over a constant compiled model.
 
     Parameters
     ----------
     system : System
-        The plant; it is copied, so the filter's parameters never touch the truth.
+        The plant's description (immutable; its parameter vector is where this model starts).
     step : float
         Integrator step (s); a filter step ``dt`` must be a whole multiple of it.
     integrator : str
         Integrator name (default ``"sdirk3"``).
     name : str
         Label for logs and results.
+
+    The parameters have one owner: this model's instance in the compiled core (:attr:`plant`).
+    :meth:`copy` makes another instance over the same constant model, sharing nothing mutable.
     """
 
-    def __init__(self, system: System, step: float, integrator: str = "sdirk3", name: str = "native"):
-        self._system = system.copy()
+    def __init__(self, system: System, step: float, integrator: str = "sdirk3", name: str = "native", *,
+                 plant: CompiledPlant | None = None):
+        from postcapture.dynamics.stability import check_step
+
+        self._description = system
         self._integrator_name = integrator
-        self._newton: tuple | None = None
         self.step = float(step)
         self.name = name
-        self.plant = CompiledPlant(self._system, integrator)
-        self._p = self._system.parameters()  # the model's parameters (the compiled copy holds them)
-        self._system_p = self._p.copy()  # what the System holds
-        sysm = self._system
-        self.nq, self.nv = sysm.nq, sysm.nv
+        self.plant = CompiledPlant(system, integrator) if plant is None else plant
+        if plant is None:
+            check_step(self.plant, system.assembly.q_rest, np.zeros(system.nv), self.step)
+        self.nq, self.nv = system.nq, system.nv
         self.nx = self.nq + self.nv
         self.n = 2 * self.nv
         self.n_meas = self.plant.nz
         self.tangent_attitude = slice(3, 6)
         self.tangent_velocity = slice(self.nv, self.nv + 3)
         self.tangent_rate = slice(self.nv + 3, self.nv + 6)
-        self.tangent_arm = np.array(sysm.layout.arm_v, dtype=int)
+        self.tangent_arm = np.array(system.layout.arm_v, dtype=int)
         self._arm_q = self.tangent_arm + (self.nq - self.nv)
-        self.accelerometer_position = np.array(sysm.scenario.chaser.accelerometer_position, dtype=float)
-        self._panel_mass = sysm.layout.target_panel_mass if sysm.layout.has_target else 0.0
-
-    # ------------------------------------------------------------------ parameters
-    # The compiled copy holds the parameters; the System it was built from (the Pinocchio model and
-    # springs: the initial state, parameter validation) follows lazily, and changes made on it directly
-    # are taken up at the next call.
-    def _current(self) -> np.ndarray:
-        sp = self._system._p
-        if not np.array_equal(sp, self._system_p):  # set on `system` directly
-            self._p, self._system_p = sp.copy(), sp.copy()
-            self.plant.set_params(self._p)
-        return self._p
+        self.accelerometer_position = np.array(system.scenario.chaser.accelerometer_position, dtype=float)
+        self._panel_mass = system.layout.target_panel_mass if system.layout.has_target else 0.0
 
     def copy(self) -> "NativeProcessModel":
-        """An independent copy (own system, parameters, compiled plant and Newton settings): a filter's own plant."""
-        other = NativeProcessModel(self.system, self.step, self._integrator_name, self.name)
-        if self._newton is not None:
-            other.set_newton(*self._newton)
-        return other
+        """An independent copy (own instance: parameters, Newton settings, warm start) over the same
+        constant model: a filter's own plant."""
+        return NativeProcessModel(self._description, self.step, self._integrator_name, self.name,
+                                  plant=self.plant.copy())
 
+    # ------------------------------------------------------------------ parameters
     @property
     def system(self) -> System:
-        """The plant's description (:class:`System`: Pinocchio model, springs, inputs) at the model's
-        current parameters."""
-        self._current()
-        if not np.array_equal(self._system_p, self._p):
-            self._system.set_parameters(self._p)
-            self._system_p = self._p.copy()
-        return self._system
+        """The plant's description at this model's current parameters (immutable; a new one per call)."""
+        return self._description.with_parameters(self.plant.params)
 
     @property
     def param_names(self) -> tuple[str, ...]:
         """Names of the parameter vector (:mod:`postcapture.dynamics.parameters`)."""
-        return self._system.parameter_names
+        return self._description.parameter_names
 
     @property
     def params(self) -> np.ndarray:
         """The model's parameter vector (a copy)."""
-        return self._current().copy()
+        return self.plant.params
 
     def set_params(self, p) -> None:
-        """Set the model's parameter vector (the filter's estimate of the truth's); validated by the system."""
-        self._current()
-        self._system.set_parameters(p)
-        self._p, self._system_p = self._system.parameters(), self._system.parameters()
-        self.plant.set_params(self._p)
+        """Set the model's parameter vector (the filter's estimate of the truth's); refused with a
+        DomainError naming the problem when not physical (checked again by the core)."""
+        self.plant.set_params(check_parameters(self.param_names, p, self._description.layout.has_target))
+
+    def update_params(self, values: dict) -> None:
+        """Set some parameters by name (``{"arm.stiffness_scale": 0.9}``), the others unchanged."""
+        self.plant.set_params(self.system.with_updates(values).parameters())
 
     def set_newton(self, rtol: float, atol: float, max_iter: int = 12) -> None:
         """Newton acceptance of the implicit stages (default 1e-10 relative, 1e-15 absolute)."""
         self.plant.set_newton(rtol, atol, max_iter)
-        self._newton = (rtol, atol, max_iter)
 
-    def _dparams_dmass(self) -> np.ndarray:
-        out = np.zeros(self._p.size)
-        out[:10] = dmass_direction(self._p[:10])
+    def _dparams_dmass(self, p: np.ndarray) -> np.ndarray:
+        out = np.zeros(p.size)
+        out[:10] = dmass_direction(p[:10])
         return out
 
     @property
     def mass(self) -> float:
-        if not self._system.layout.has_target:
+        if not self._description.layout.has_target:
             raise AttributeError("this scenario has no target")
-        return float(self._current()[0]) + self._panel_mass
+        return float(self.plant.params[0]) + self._panel_mass
 
     @mass.setter
     def mass(self, value: float) -> None:
-        """The hub's mass changes at a fixed centre of mass and inertia about it (linear in the mass)."""
-        if not self._system.layout.has_target:
+        """The hub's mass changes at a fixed centre of mass and inertia about it."""
+        if not self._description.layout.has_target:
             raise AttributeError("this scenario has no target")
-        m_hub = float(value) - self._panel_mass
-        if not m_hub > 0.0:
-            raise ValueError(f"target_mass: expected more than the panels' {self._panel_mass} kg, found {value}")
-        p = self._current().copy()
-        p += (m_hub - p[0]) * self._dparams_dmass()
-        p[0] = m_hub
-        self.plant.set_params(p)
-        self._p = p
+        self.plant.set_params(with_target_mass(self.plant.params, value, self._panel_mass))
 
     # ------------------------------------------------------------------ protocol
     def initial_state(self) -> np.ndarray:
         from postcapture.dynamics.build import initial_state
 
-        q0, v0 = initial_state(self.system)
+        q0, v0 = initial_state(self._description, plant=self.plant)
         return np.concatenate([q0, v0])
 
     def split(self, x):
@@ -148,22 +129,22 @@ class NativeProcessModel:
         if k < 1 or abs(k * self.step - dt) > 1e-9 * max(1.0, dt):
             raise ValueError(f"dt: expected a whole multiple of the model step {self.step}, found {dt}")
         q, v = self.split(np.asarray(x, dtype=float))
-        self._current()
         q1, v1, z, F, _Fu, G, H, _Hu, Hp = self.plant.predict(q, v, t, self.step, k, jacobians)
         g = h = None
         if jacobians:
-            dpdm = self._dparams_dmass() if self._system.layout.has_target else np.zeros(G.shape[1])
+            dpdm = self._dparams_dmass(self.plant.params) if self._description.layout.has_target else np.zeros(G.shape[1])
             g, h = G @ dpdm, Hp @ dpdm
         return Prediction(np.concatenate([q1, v1]), z, F, g, H, h, G, Hp)
 
     def retract(self, x, dx):
         q, v = self.split(np.asarray(x, dtype=float))
-        return np.concatenate([pin.integrate(self._system.model, q, dx[: self.nv]), v + dx[self.nv :]])
+        dx = np.asarray(dx, dtype=float)
+        return np.concatenate([self.plant.integrate(q, dx[: self.nv]), v + dx[self.nv :]])
 
     def local(self, x1, x0):
         q1, v1 = self.split(np.asarray(x1, dtype=float))
         q0, v0 = self.split(np.asarray(x0, dtype=float))
-        return np.concatenate([pin.difference(self._system.model, q0, q1), v1 - v0])
+        return np.concatenate([self.plant.difference(q0, q1), v1 - v0])
 
     def attitude(self, x) -> np.ndarray:
         return quat_from_pinocchio(np.asarray(x[3:7], dtype=float))

@@ -23,6 +23,7 @@ from postcapture.dynamics.accuracy import choose_step, newton_for
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.outputs import OutputSpec, fill_outputs, output_specs
+from postcapture.dynamics.stability import check_step
 from postcapture.dynamics.system import System
 from postcapture.dynamics.trajectory import StateLayout, Trajectory
 
@@ -80,6 +81,11 @@ def simulate_system(
     Returns
     -------
     Trajectory
+
+    Raises
+    ------
+    StepTooLargeError
+        For an explicit integrator whose step is beyond the plant's stability limit (the message gives it).
     """
     ratio = sample_period / step
     per = int(round(ratio))
@@ -89,6 +95,7 @@ def simulate_system(
                                         integrator=integrator))
     n = int(round(duration / sample_period)) + 1
     plant = CompiledPlant(system, integrator)
+    check_step(plant, q0, v0, step)
     if newton is not None:
         plant.set_newton(*newton)
     hist = {"q": np.zeros((n, system.nq)), "v": np.zeros((n, system.nv)), "ddq": np.zeros((n, system.nv)),
@@ -168,11 +175,14 @@ def simulate(
     (4, 11)
     """
     sim = scenario.simulation
-    system = build_system(scenario, variant, panel_segments=panel_segments, damping=damping, excitation=excitation)
-    system.update_parameters(parameters or {})
-    q0, v0 = initial_state(system)
+    system = build_system(scenario, variant, panel_segments=panel_segments, damping=damping,
+                          excitation=excitation).with_updates(parameters or {})
     duration = sim.duration if duration is None else duration
     sample_period = sim.sample_period if sample_period is None else sample_period
+    # refused before the initial state is solved (a huge model's relaxation alone can take long)
+    check_resources(estimate_simulation(nv=system.nv, duration=duration, step=sim.step if step is None else step,
+                                        sample_period=sample_period, integrator=integrator or sim.integrator))
+    q0, v0 = initial_state(system)
     newton = None
     integrator = sim.integrator if integrator is None else integrator
     chosen = step is None and sim.step is None

@@ -19,7 +19,7 @@ class StateLayout:
     Attributes
     ----------
     free_flyer : bool
-        The first joint is Pinocchio's free flyer (chaser position and attitude, 7 q and 6 v entries).
+        The first joint is a free flyer (chaser position and attitude, 7 q and 6 v entries).
     joints : tuple of str
         Names of the one-degree-of-freedom joints, in state order.
     q_index, v_index : tuple of int
@@ -40,17 +40,17 @@ class StateLayout:
         """The layout of a built :class:`~postcapture.dynamics.system.System`; None for joints it cannot name."""
         from postcapture.config.excitation import CHASER_CHANNELS
 
-        model = system.model
+        tree = system.tree
         free_flyer = bool(system.layout.free_flyer)
         joints, qi, vi = [], [], []
-        for j in range(2 if free_flyer else 1, model.njoints):
-            if model.nqs[j] != 1 or model.nvs[j] != 1:
+        for joint in tree.joints[1 if free_flyer else 0 :]:
+            if joint.nq != 1 or joint.nv != 1:
                 return None
-            joints.append(str(model.names[j]))
-            qi.append(int(model.idx_qs[j]))
-            vi.append(int(model.idx_vs[j]))
+            joints.append(joint.name)
+            qi.append(joint.iq)
+            vi.append(joint.iv)
         n_arm = system.layout.n_arm
-        if free_flyer and system.n_u == 6 + n_arm and not getattr(system, "_custom_B", False):
+        if free_flyer and system.n_u == 6 + n_arm and not system.custom_input_matrix:
             units = ("N",) * 3 + ("N m",) * 3
             inputs = tuple(zip(CHASER_CHANNELS, units)) + tuple((f"joint_{k + 1}_torque", "N m") for k in range(n_arm))
         else:

@@ -63,9 +63,7 @@ class TruthModel:
 
     def build(self, variant: str = "flexible", **kwargs) -> System:
         """The truth plant (``build_system`` of the scenario, then the parameter overrides)."""
-        system = build_system(self.scenario, variant, **kwargs)
-        system.update_parameters(self.parameters)
-        return system
+        return build_system(self.scenario, variant, **kwargs).with_updates(self.parameters)
 
     def describe(self, nominal: Scenario) -> dict:
         """The truth's physical parameters, for tables and result files (see :func:`truth_vector_names`)."""

@@ -4,9 +4,10 @@ A filter works on tangent (error) coordinates; an FMU exchanges ambient ones (a 
 entries). Two layouts are supported (the mapping's ``kinematics``):
 
 ``free_flyer``
-    ``x = [q (nq), v (nq - 1)]`` with ``q[:7]`` a Pinocchio free flyer (position, quaternion x y z w)
-    and Euclidean joints: tangents are Pinocchio's right perturbations, as in
-    :class:`postcapture.dynamics.process_model.NativeProcessModel` (same Lie group code).
+    ``x = [q (nq), v (nq - 1)]`` with ``q[:7]`` a free flyer (position, quaternion x y z w, Pinocchio's
+    layout) and Euclidean joints: tangents are right perturbations of the body twist, as in
+    :class:`postcapture.dynamics.process_model.NativeProcessModel` (the same Lie group code: the
+    compiled core's box-plus and box-minus, :mod:`postcapture.dynamics.liegroup`).
 ``quaternion``
     Any state with a unit quaternion ``q_BN`` (scalar first) among its entries: the tangent is
     ``[dtheta_B (3), the other entries in order]`` with ``q (+) dtheta = q exp(dtheta)``.
@@ -21,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from postcapture.core.rotations import box_minus, box_plus
+from postcapture.dynamics.liegroup import difference, integrate
 
 __all__ = ["FreeFlyerKinematics", "QuaternionKinematics", "layout_problems", "make_kinematics"]
 
@@ -51,7 +53,7 @@ def _left_wxyz(w, x, y, z) -> np.ndarray:
 
 
 class FreeFlyerKinematics:
-    """Pinocchio free flyer plus Euclidean joints (see the module docstring).
+    """Free flyer plus Euclidean joints (see the module docstring).
 
     Parameters
     ----------
@@ -62,27 +64,23 @@ class FreeFlyerKinematics:
     name = "free_flyer"
 
     def __init__(self, nx: int):
-        import pinocchio as pin
-
         if nx < 13 or nx % 2 == 0:
             raise ValueError(f"free_flyer kinematics: expected nx = 2 nq - 1 >= 13, found {nx}")
         self.nq = (nx + 1) // 2
         self.nv = self.nq - 1
         self.nx, self.n = nx, 2 * self.nv
-        se3 = pin.liegroups.SE3()
-        self._group = se3 * pin.liegroups.Rn(self.nq - 7) if self.nq > 7 else se3
         self.tangent_attitude = slice(3, 6)
         self.tangent_rate = slice(self.nv + 3, self.nv + 6)
 
     def retract(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """``x (+) dx``, shape (nx,)."""
         nq, nv = self.nq, self.nv
-        return np.concatenate([self._group.integrate(x[:nq], dx[:nv]), x[nq:] + dx[nv:]])
+        return np.concatenate([integrate(x[:nq], dx[:nv], nq, nv, True), x[nq:] + dx[nv:]])
 
     def local(self, x1: np.ndarray, x0: np.ndarray) -> np.ndarray:
         """``x1 (-) x0``, shape (n,)."""
         nq = self.nq
-        return np.concatenate([self._group.difference(x0[:nq], x1[:nq]), x1[nq:] - x0[nq:]])
+        return np.concatenate([difference(x0[:nq], x1[:nq], nq, self.nv, True), x1[nq:] - x0[nq:]])
 
     def basis(self, x: np.ndarray) -> np.ndarray:
         """``L(x)`` (nx, n)."""
@@ -173,6 +171,41 @@ class QuaternionKinematics:
         return D
 
 
+def _index_problems(nx: int, att: list[int], rt: list[int]) -> list[str]:
+    """Problems of the attitude and rate indices themselves (range, distinct, not shared)."""
+    problems = []
+    if any(not 0 <= i < nx for i in att + rt):
+        problems.append(f"attitude and rate entries must be among the {nx} state entries")
+    if len(set(att)) != 4:
+        problems.append("the four attitude entries must be distinct")
+    if len(set(rt)) != 3:
+        problems.append("the three rate entries must be distinct")
+    shared = sorted(set(att) & set(rt))
+    if shared:
+        problems.append(f"attitude and rate share state entr{'ies' if len(shared) > 1 else 'y'} "
+                        f"{', '.join(str(i + 1) for i in shared)} (1-based): they must not overlap")
+    return problems
+
+
+def _free_flyer_problems(nx: int, att: list[int], rt: list[int]) -> list[str]:
+    if nx < 13 or nx % 2 == 0:
+        return [f"free_flyer kinematics: expected nx = 2 nq - 1 >= 13 state entries, found {nx}"]
+    nq = (nx + 1) // 2
+    if att != [6, 3, 4, 5] or rt != [nq + 3, nq + 4, nq + 5]:
+        return ["free_flyer kinematics: attitude must be q[7], q[4], q[5], q[6] and rate v[4], v[5], v[6] "
+                "of a Pinocchio free-flyer state"]
+    return []
+
+
+def _quaternion_problems(nx: int, att: list[int], rt: list[int]) -> list[str]:
+    rest = [i for i in range(nx) if i not in set(att)]
+    pos = [rest.index(i) for i in rt]
+    if pos != list(range(pos[0], pos[0] + 3)):
+        return ["quaternion kinematics: the rate entries must be consecutive in the state (apart from the "
+                "attitude entries) and in x, y, z order"]
+    return []
+
+
 def layout_problems(kind: str, nx: int, attitude, rate) -> list[str]:
     """Every reason why indices of q_BN (w, x, y, z) and of the rates do not fit layout ``kind``.
 
@@ -191,37 +224,15 @@ def layout_problems(kind: str, nx: int, attitude, rate) -> list[str]:
         Empty when the layout is usable.
     """
     att, rt = [int(i) for i in attitude], [int(i) for i in rate]
-    problems = []
     if len(att) != 4 or len(rt) != 3:
         return [f"expected 4 attitude and 3 rate entries, found {len(att)} and {len(rt)}"]
-    if any(not 0 <= i < nx for i in att + rt):
-        problems.append(f"attitude and rate entries must be among the {nx} state entries")
-    if len(set(att)) != 4:
-        problems.append("the four attitude entries must be distinct")
-    if len(set(rt)) != 3:
-        problems.append("the three rate entries must be distinct")
-    shared = sorted(set(att) & set(rt))
-    if shared:
-        problems.append(f"attitude and rate share state entr{'ies' if len(shared) > 1 else 'y'} "
-                        f"{', '.join(str(i + 1) for i in shared)} (1-based): they must not overlap")
+    problems = _index_problems(nx, att, rt)
     if problems:
         return problems
-    if kind == "free_flyer":
-        if nx < 13 or nx % 2 == 0:
-            return [f"free_flyer kinematics: expected nx = 2 nq - 1 >= 13 state entries, found {nx}"]
-        nq = (nx + 1) // 2
-        if att != [6, 3, 4, 5] or rt != [nq + 3, nq + 4, nq + 5]:
-            return ["free_flyer kinematics: attitude must be q[7], q[4], q[5], q[6] and rate v[4], v[5], v[6] "
-                    "of a Pinocchio free-flyer state"]
-        return []
-    if kind == "quaternion":
-        rest = [i for i in range(nx) if i not in set(att)]
-        pos = [rest.index(i) for i in rt]
-        if pos != list(range(pos[0], pos[0] + 3)):
-            return ["quaternion kinematics: the rate entries must be consecutive in the state (apart from the "
-                    "attitude entries) and in x, y, z order"]
-        return []
-    return [f"kinematics: expected free_flyer or quaternion, found {kind!r}"]
+    checks = {"free_flyer": _free_flyer_problems, "quaternion": _quaternion_problems}
+    if kind not in checks:
+        return [f"kinematics: expected free_flyer or quaternion, found {kind!r}"]
+    return checks[kind](nx, att, rt)
 
 
 def make_kinematics(kind: str, nx: int, attitude, rate):

@@ -7,7 +7,7 @@ deflection is recorded at ``n_samples`` instants ``t_k = k duration / n_samples`
 time integration of the simulated model itself: ``System(assemble_panel_chain(panel))`` driven by an
 `InputSchedule` carrying the same `Chirp` on its ``force_z`` channel, mapped to joint torques through
 the tip's Jacobian at rest, stepped by a Lie-group Runge-Kutta integrator; its tip deflection is the z
-coordinate of the frame ``<name>_tip`` in ``<name>_root`` (Pinocchio placements).
+coordinate of the frame ``<name>_tip`` in ``<name>_root`` (the compiled core's panel outputs).
 
 Damping is the same law in both: stiffness-proportional, ``zeta_r = beta omega_r / 2``, with
 ``beta = 2 zeta_1 / omega_1`` set from a damping ratio ``zeta_1`` at the reference's first bending mode;
@@ -38,7 +38,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from postcapture.config.excitation import CHASER_CHANNELS, Chirp
 from postcapture.config.schema import Panel
@@ -267,9 +266,13 @@ def tip_response_fem(modes: PanelModes, spec: SweepSpec, *, beta: float, substep
     return w[::substeps]
 
 
-def _input_matrix(system: System, tip: int, q: np.ndarray) -> np.ndarray:
-    """``B`` (nv x n_u): the z force at the tip mapped to joint torques by the tip Jacobian at ``q``."""
-    jac = pin.computeFrameJacobian(system.model, system.data, q, tip, pin.LOCAL_WORLD_ALIGNED)
+def _input_matrix(system: System, q: np.ndarray) -> np.ndarray:
+    """``B`` (nv x n_u): the z force at the tip mapped to joint torques by the tip Jacobian at ``q``.
+
+    The chain's root frame is the base's (fixed, world-aligned), so the z row of the tip's translation
+    Jacobian is the core's panel-output Jacobian row of the tip's z deflection.
+    """
+    jac = CompiledPlant(system).panel_jacobian(q)
     b = np.zeros((system.nv, system.n_u))
     b[:, _FORCE_CHANNEL] = jac[2]
     return b
@@ -308,9 +311,7 @@ def tip_response_chain(panel: Panel, spec: SweepSpec, *, integrator: str | None 
     probe = System(asm)
     q = asm.q_rest.copy()
     v = np.zeros(probe.nv)
-    model = probe.model
-    tip = model.getFrameId(f"{panel.name}_tip")
-    system = System(asm, inputs=InputSchedule([spec.profile()], 0), input_matrix=_input_matrix(probe, tip, q))
+    system = System(asm, inputs=InputSchedule([spec.profile()], 0), input_matrix=_input_matrix(probe, q))
     h_accuracy = 1.0 / (20.0 * spec.f_stop) if max_step is None else float(max_step)
     fastest = float(np.max(np.abs(np.linalg.eigvals(linearize(system, q, v).A))))
     h_stable = 1.0 / max(fastest, 1e-12)

@@ -20,7 +20,7 @@ from postcapture.dynamics.accuracy import newton_for
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.simulate import simulate_system
 
-__all__ = ["integrator_accuracy", "ARCSEC", "CASES"]
+__all__ = ["integrator_accuracy", "accuracy_table", "ARCSEC", "CASES"]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 CASES = (
@@ -87,4 +87,29 @@ def integrator_accuracy(
             cpu = time.process_time() - t0
             rows[f"{method} h={h}"] = {**_errors(traj, ref, panel), "cpu_s": cpu, "rtf": duration / cpu}
         out[label] = rows
+    from postcapture.studies.bench import machine_info
+
+    out["machine"] = machine_info()
+    out["scenario"] = scenario_name
+    out["date"] = time.strftime("%Y-%m-%d")
     return out
+
+
+def accuracy_table(result: dict) -> str:
+    """The Markdown table of :func:`integrator_accuracy` (what BENCHMARKS.md quotes), with the machine."""
+    m = result.get("machine", {})
+    lines = [
+        f"Largest deviation over {result['duration_s']:g} s from {result['reference']}, scenario "
+        f"{result.get('scenario', '?')}, {result.get('date', '')}; machine: {m.get('cpu', '?')}, {m.get('cores', '?')} "
+        f"cores, Python {m.get('python', '?')}, numpy {m.get('numpy', '?')}, {m.get('compiler', '?')} "
+        f"({m.get('cflags', '')}). Attitude in arcsec; joint angles in rad; tip deflection, chaser acceleration "
+        "and arm joint accelerations relative to their largest value; real-time factor on CPU time.",
+        "",
+        "| case | method | attitude (arcsec) | joints (rad) | tip | chaser accel | arm ddq | real-time factor |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for label in ("forced", "free"):
+        for name, r in result.get(label, {}).items():
+            lines.append(f"| {label} | {name} | {r['attitude_arcsec']:.3g} | {r['joint_rad']:.2e} | {r['tip_rel']:.2e} | "
+                         f"{r['accel_rel']:.2e} | {r['arm_ddq_rel']:.2e} | {r['rtf']:.0f} |")
+    return "\n".join(lines)

@@ -25,7 +25,6 @@ __all__ = ["machine_info", "run_benchmark", "compile_time"]
 
 def machine_info() -> dict:
     """CPU, core count and library versions, for BENCHMARKS.md."""
-    import pinocchio
     import scipy
 
     cpu = platform.processor() or "unknown"
@@ -45,7 +44,6 @@ def machine_info() -> dict:
         "python": platform.python_version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
-        "pinocchio": pinocchio.__version__,
         "compiler": compiler(),
         "cflags": " ".join(CFLAGS),
     }

@@ -383,7 +383,7 @@ def bound_with_model_error(plan: RunPlan, model_noise, progress=None):
     pmap = ParameterMap(model.param_names, nominal, estimate + tuple(g for g in consider if g not in estimate))
     _, P_prior = parameter_prior(plan, pmap, initial_mass=plan.nominal_mass)
     x0_nominal = model.initial_state()
-    model.system.update_parameters(plan.truth.parameters)
+    model.update_params(plan.truth.parameters)
     x0_true = model.initial_state()
     S0 = initial_state_sensitivity(model)
     model.set_params(nominal)

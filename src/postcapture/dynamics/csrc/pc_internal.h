@@ -1,4 +1,22 @@
-/* postcapture plant core: the model and workspace structure and the 6-D spatial algebra (internal). */
+/*
+ * postcapture plant core (internal): the layout of the constant model and of one instance's data, and
+ * the functions the stage files share. Which file owns what:
+ *   pc_model.c            packed arrays -> model, the tableau
+ *   pc_validate.c         pc_validate: every index and size of a model, before anything runs
+ *   pc_data.c             data life cycle, the scratch arena, the error buffer, parameters, settings
+ *   pc_inputs.c           excitation profiles and the input map (B u)
+ *   pc_passive.c          springs and dampers: forces, their partials, energy, the Newton "armature"
+ *   pc_kinematics.c       joint and world placements, centre of mass, output frames, measurement, samples
+ *   pc_aba.c              articulated-body algorithm and the articulated factorization of M + armature
+ *   pc_rnea.c             recursive Newton-Euler inverse dynamics and its parameter partials
+ *   pc_rnea_derivatives.c analytic partials of the inverse dynamics (q, v)
+ *   pc_crba.c             composite-rigid-body mass matrix
+ *   pc_derivatives.c      partials of the forward dynamics (force form, M^-1 columns, selected rows)
+ *   pc_liegroup.c         the configuration group: integrate, difference, their tangent maps, dexpinv
+ *   pc_linalg.c           small dense linear algebra (LU, 6x6 Cholesky)
+ *   pc_integrator.c       Lie-group DIRK steps (Newton in force form), the truth loop
+ *   pc_jacobian.c         exact step Jacobians, the measurement Jacobians, the filters' prediction
+ */
 #ifndef PC_INTERNAL_H
 #define PC_INTERNAL_H
 
@@ -6,262 +24,202 @@
 #include <string.h>
 
 #include "pc_plant.h"
+#include "pc_spatial.h"
 
-/* Joint-space factorization of M(q) + diag(armature) by the articulated-body recursion. */
+/* One excitation profile on one input channel, active on [start, stop). */
 typedef struct {
-    double* R;   /* nj x 9: joint placements in the parent at the factorization point */
-    double* p;   /* nj x 3 */
-    double* U;   /* nj x 6 */
-    double* Dinv; /* nj */
-    double* cs;   /* nj x 2: cos, sin of the joint angles */
-    double root[36]; /* LDL of the root's articulated inertia */
-    int valid;
-} pc_factor_t;
+    int kind, channel, table, n_table;
+    double start, stop, a, rise, w, phase, offset, f0, rate;
+} pc_profile_t;
 
+typedef struct {
+    int parent;        /* parent joint (-1: the universe) */
+    int kind;          /* -1 free flyer, 0/1/2 revolute about x/y/z */
+    int iq, iv;        /* first configuration / velocity index */
+    double R[9], p[3]; /* placement in the parent joint's frame */
+    double pi[10];     /* nominal inertia: dynamic parameters in the joint frame */
+    int axis_only;     /* revolute with an identity placement rotation: its rotation is about one axis */
+} pc_joint_t;
+
+typedef struct {
+    int v[2];        /* velocity indices of the (at most two) coordinates, -1 when unused */
+    double a[2];     /* coefficients: deflection a . q - rest */
+    double k0, d0;   /* nominal stiffness and damping */
+    double rest;
+    int pk, pd;      /* parameter index of the stiffness and damping scale (-1: none) */
+} pc_spring_t;
+
+/* A panel's output frames: its root frame (on the host body) and its tip point (on the last segment). */
+typedef struct {
+    int root_joint, tip_joint, torsion_v;
+    double R[9], p[3]; /* root frame placement in the root joint's frame */
+    double tip[3];     /* tip point in the tip joint's frame */
+    double length;
+} pc_panel_t;
+
+/* A Butcher tableau with a lower-triangular A. */
+typedef struct {
+    int s;
+    double A[PC_MAX_STAGES][PC_MAX_STAGES], b[PC_MAX_STAGES], c[PC_MAX_STAGES];
+    int stiffly_accurate;
+} pc_tableau_t;
+
+/* The constant model (never written after pc_model_create). */
 struct pc_model {
     int nq, nv, nj, nu, ns, nprof, npanels, ntable, custom_b, n_arm, n_arm_v, target_joint, np, free_flyer;
     int n_root_v, n_root_q, nz;
     pc_joint_t* joints;
     pc_spring_t* springs;
     int* u_to_v;          /* nu: velocity index of each input (default input map) */
-    double* B;            /* nv x nu (custom input map) */
+    double* B;            /* nv x nu: the input matrix (custom, or from u_to_v) */
     pc_profile_t* prof;
     double* table_t;
     double* table_v;
     pc_panel_t* panels;
     int* arm_v;           /* n_arm_v */
+    int* sub_end;         /* nj: one past the last joint of each joint's subtree (depth-first numbering) */
     double r_acc[3];      /* accelerometer position in the root body frame */
     double t_L[100];      /* 10 x 10: target hub parameters (T frame) -> joint-frame parameters */
     double t_base[10];    /* the target joint's inertia without the hub */
-    double* params;       /* np */
-    double* u_extra;      /* nu: added to the excitation */
+    double* p0;           /* np: nominal parameter vector */
     int diag_springs;     /* every spring acts on one coordinate */
-    /* integrator */
     pc_tableau_t tab;
+    size_t arena_size;    /* doubles of scratch each data gets */
+    void* block;          /* the one allocation holding the arrays above */
+};
+
+/* Joint-space factorization of M(q) + diag(armature) by the articulated-body recursion. */
+typedef struct {
+    double* R;    /* nj x 9: joint placements in the parent at the factorization point */
+    double* p;    /* nj x 3 */
+    double* U;    /* nj x 6 */
+    double* Dinv; /* nj */
+    double* cs;   /* nj x 2: cos, sin of the joint angles */
+    double root[36]; /* Cholesky factor of the root's articulated inertia */
+    int valid;
+} pc_factor_t;
+
+/* Newton policy of the implicit stages (see pc_integrator.c). */
+typedef struct {
+    double rtol, atol;
+    int max_iter;
+} pc_newton_t;
+
+/* One instance's mutable state over a model. */
+struct pc_data {
+    /* parameters and what follows from them */
+    double* params;       /* np */
+    double* pi;           /* nj x 10: joint inertias at the current parameters */
+    double* k;            /* ns: spring stiffnesses at the current scales */
+    double* dmp;          /* ns: damper coefficients at the current scales */
+    double* u_extra;      /* nu: added to the excitation */
     pc_newton_t newton;
+    /* statistics */
     long n_steps, n_newton, n_factor;
-    /* warm start: the previous step's stages */
+    /* warm start: the previous steps' stages */
     int have_prev;        /* previous steps remembered (0, 1 or 2), all of step prev_h */
     double prev_h;
-    double* prev_V;       /* stages x nv: the previous step's stage velocities */
-    double* prev_v;       /* nv: the previous step's start velocity */
-    double* prev2_V;      /* the same one step earlier */
-    double* prev2_v;
-    /* workspace */
-    double *Rl, *pl;      /* nj x 9, nj x 3: joint placements in the parent (current configuration) */
-    double* csl;          /* nj x 2: cos, sin of the revolute joints' angles (current configuration) */
-    double *Ro, *po;      /* nj x 9, nj x 3: world placements */
+    double *prev_V, *prev_v, *prev2_V, *prev2_v;
+    /* workspace of the recursions */
+    double *Rl, *pl, *csl; /* joint placements in the parent, cos/sin of revolute angles (current q) */
+    double *Ro, *po;       /* world placements */
     double *vj, *aj, *cj, *fj; /* nj x 6 */
-    double* IA;           /* nj x 36 */
-    double *Uj, *Dj, *uj; /* nj x 6, nj, nj */
+    double* IA;            /* nj x 36 */
+    double *Uj, *Dj, *uj;
     double* tmp_nv[8];
     double* tmp_nq[2];
-    pc_factor_t fac;
-    double* dense;        /* nv x nv scratch (dense Newton fallback and Jacobians) */
+    pc_factor_t fac;       /* the integrator's Newton matrix */
+    pc_factor_t fac2;      /* a second factorization (derivatives) */
+    double* dense;         /* nv x nv (dense Newton matrix) */
+    double* dense2;        /* nv x nv (stage sensitivity matrix) */
     int* piv;
-    double* jac_work;     /* derivative and step-Jacobian scratch */
-    size_t jac_work_size;
+    /* scratch arena: a stack of doubles, marked and released by each call */
+    double* arena;
+    size_t arena_size, arena_top, arena_peak;
+    void* block;
     char error[512];
 };
 
-/* The stages of one step (each nv, inputs nu), in one allocation. */
+/* The stages of one step (each nv, inputs nu). */
 typedef struct {
     double* xi[PC_MAX_STAGES];
     double* V[PC_MAX_STAGES];
     double* Kxi[PC_MAX_STAGES];
     double* Kv[PC_MAX_STAGES];
     double* u[PC_MAX_STAGES];
-    double* buf;
 } pc_stages_t;
 
-void pc_set_error(pc_model_t* m, const char* fmt, ...);
-int pc_step_internal(pc_model_t* m, double* q, double* v, double t, double h, pc_stages_t* S, double* xi_end, int warm);
-void pc_kinematics(pc_model_t* m, const double* q);
+/* pc_data.c */
+typedef struct {
+    char* base;
+    size_t used;
+} pc_carve_t;
+void* pc_carve(pc_carve_t* c, size_t n, size_t size);
+void pc_set_error(pc_data_t* d, const char* fmt, ...);
+double* pc_arena_alloc(pc_data_t* d, size_t n);
+#define PC_ARENA_MARK(d) ((d)->arena_top)
+#define PC_ARENA_RELEASE(d, mark) ((d)->arena_top = (mark))
+size_t pc_arena_need(const pc_model_t* m);
+int pc_stages_alloc(const pc_model_t* m, pc_data_t* d, pc_stages_t* S);
+int pc_params_problem(const pc_model_t* m, const double* p, char* err, size_t n);
+
+/* pc_model.c, pc_validate.c */
+int pc_model_error(char* err, size_t n, const char* fmt, ...);
+int pc_validate(const pc_model_t* m, char* err, size_t err_size);
+
+/* pc_inputs.c */
 void pc_profile_unpack(const int* ip, const double* dp, pc_profile_t* P);
-void pc_world_placements(pc_model_t* m);
+void pc_inputs_at(const pc_model_t* m, const pc_data_t* d, double t, int left, double* u);
+void pc_input_force(const pc_model_t* m, const double* u, double* tau);
+
+/* pc_passive.c */
+void pc_spring_force(const pc_model_t* m, const pc_data_t* d, const double* q, const double* v, double* tau);
+void pc_spring_partials(const pc_model_t* m, const pc_data_t* d, double* Cq, double* Cv);
+void pc_spring_param_forces(const pc_model_t* m, const double* q, const double* v, double* Tp);
+double pc_elastic_energy(const pc_model_t* m, const pc_data_t* d, const double* q);
+double pc_spring_power(const pc_model_t* m, const pc_data_t* d, const double* v);
+void pc_spring_armature(const pc_model_t* m, const pc_data_t* d, double hg, double* arm);
+void pc_spring_dense(const pc_model_t* m, const pc_data_t* d, double hg, double* M);
+void pc_force(const pc_model_t* m, const pc_data_t* d, const double* q, const double* v, const double* u, double* tau);
+
+/* pc_kinematics.c */
+void pc_kinematics(const pc_model_t* m, pc_data_t* d, const double* q);
+void pc_world_placements(const pc_model_t* m, pc_data_t* d);
+void pc_measurement(const pc_model_t* m, const double* v, const double* ddq, double* z);
+
+/* pc_aba.c */
+int pc_factorize(const pc_model_t* m, pc_data_t* d, const double* q, const double* armature, pc_factor_t* F);
+void pc_factor_solve(const pc_model_t* m, pc_data_t* d, const pc_factor_t* F, double* x);
+
+/* pc_rnea.c */
+void pc_param_forces(const pc_model_t* m, pc_data_t* d, const double* q, const double* v, double* Tp);
+
+/* pc_crba.c */
 void pc_joint_inertia_matrix(const double* pi, double* I6);
 void pc_add_transformed_inertia(const double* R, const double* p, const double* Ia, double* Ip);
-int pc_crba(pc_model_t* m, const double* q, double* M);
-int pc_rows_from_partials(pc_model_t* m, const double* q, const double* Cq, const double* Cv, const double* Tp,
-                          const int* rows, int nr, double* Aq, double* Av, double* Au, double* Ap);
-int pc_derivative_rows(pc_model_t* m, const double* q, const double* v, const double* u, const int* rows, int nr,
-                       double* ddq, double* Aq, double* Av, double* Au, double* Ap);
-int pc_force_partials(pc_model_t* m, const double* q, const double* v, const double* u, double* ddq, double* Cq,
-                      double* Cv, double* Tp);
-void pc_spring_force(const pc_model_t* m, const double* q, const double* v, double* tau, int add);
-int pc_factorize(pc_model_t* m, const double* q, const double* armature, pc_factor_t* F);
-void pc_factor_solve(const pc_model_t* m, const pc_factor_t* F, double* x);
+int pc_crba(const pc_model_t* m, pc_data_t* d, const double* q, double* M);
+
+/* pc_derivatives.c */
+int pc_force_partials(const pc_model_t* m, pc_data_t* d, const double* q, const double* v, const double* u,
+                      double* ddq, double* Cq, double* Cv, double* Tp);
+int pc_rows_from_partials(const pc_model_t* m, pc_data_t* d, const double* q, const double* Cq, const double* Cv,
+                          const double* Tp, const int* rows, int nr, double* Aq, double* Av, double* Au, double* Ap);
+int pc_derivative_rows(const pc_model_t* m, pc_data_t* d, const double* q, const double* v, const double* u,
+                       const int* rows, int nr, double* ddq, double* Aq, double* Av, double* Au, double* Ap);
+
+/* pc_liegroup.c */
 void pc_dexpinv_apply(const double* xi, const double* V, double* out);
 void pc_dexpinv_mats(const double* xi, const double* V, double* G, double* Gx);
 void pc_dintegrate_root(const double* xi, double* J0, double* Jr);
+
+/* pc_linalg.c */
 int pc_lu_factor(double* A, int* piv, int n);
 void pc_lu_solve(const double* LU, const int* piv, int n, double* B, int m, int ld);
-void pc_measurement(pc_model_t* m, const double* q, const double* v, const double* ddq, double* z);
-int pc_rnea_derivatives(pc_model_t* m, const double* q, const double* v, const double* a, double* dq, double* dv);
-void pc_param_forces(pc_model_t* m, const double* q, const double* v, const double* a, double* Tp);
+int pc_chol6(double* A);
+void pc_chol6_solve(const double* L, double* x);
 
-/* ---------------------------------------------------------------------------------- 3-D and 6-D algebra */
-static inline void cross3(const double* a, const double* b, double* out) {
-    double x = a[1] * b[2] - a[2] * b[1], y = a[2] * b[0] - a[0] * b[2], z = a[0] * b[1] - a[1] * b[0];
-    out[0] = x; out[1] = y; out[2] = z;
-}
-
-static inline void mv3(const double* R, const double* x, double* out) { /* R x */
-    double a = R[0] * x[0] + R[1] * x[1] + R[2] * x[2];
-    double b = R[3] * x[0] + R[4] * x[1] + R[5] * x[2];
-    double c = R[6] * x[0] + R[7] * x[1] + R[8] * x[2];
-    out[0] = a; out[1] = b; out[2] = c;
-}
-
-static inline void mtv3(const double* R, const double* x, double* out) { /* R^T x */
-    double a = R[0] * x[0] + R[3] * x[1] + R[6] * x[2];
-    double b = R[1] * x[0] + R[4] * x[1] + R[7] * x[2];
-    double c = R[2] * x[0] + R[5] * x[1] + R[8] * x[2];
-    out[0] = a; out[1] = b; out[2] = c;
-}
-
-static inline void mm3(const double* A, const double* B, double* C) { /* C = A B (C may not alias) */
-    int i, j;
-    for (i = 0; i < 3; i++)
-        for (j = 0; j < 3; j++) C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
-}
-
-/* motion in the parent frame -> child frame placed at (R, p): (R^T (v - p x w), R^T w) */
-static inline void motion_act_inv(const double* R, const double* p, const double* m, double* out) {
-    double t[3], pw[3];
-    cross3(p, m + 3, pw);
-    t[0] = m[0] - pw[0]; t[1] = m[1] - pw[1]; t[2] = m[2] - pw[2];
-    mtv3(R, m + 3, out + 3);
-    mtv3(R, t, out);
-}
-
-/* motion in the child frame -> parent frame: (R v + p x R w, R w) */
-static inline void motion_act(const double* R, const double* p, const double* m, double* out) {
-    double w[3], v[3], pw[3];
-    mv3(R, m + 3, w);
-    mv3(R, m, v);
-    cross3(p, w, pw);
-    out[0] = v[0] + pw[0]; out[1] = v[1] + pw[1]; out[2] = v[2] + pw[2];
-    out[3] = w[0]; out[4] = w[1]; out[5] = w[2];
-}
-
-/* wrench in the child frame -> parent frame: (R f, R n + p x R f) */
-static inline void force_act(const double* R, const double* p, const double* f, double* out) {
-    double fl[3], n[3], pf[3];
-    mv3(R, f, fl);
-    mv3(R, f + 3, n);
-    cross3(p, fl, pf);
-    out[0] = fl[0]; out[1] = fl[1]; out[2] = fl[2];
-    out[3] = n[0] + pf[0]; out[4] = n[1] + pf[1]; out[5] = n[2] + pf[2];
-}
-
-/* twist cross twist: v x m = (w x m_l + v_l x m_w, w x m_w) */
-static inline void cross_motion(const double* v, const double* m, double* out) {
-    double a[3], b[3], c[3];
-    cross3(v + 3, m, a);
-    cross3(v, m + 3, b);
-    cross3(v + 3, m + 3, c);
-    out[0] = a[0] + b[0]; out[1] = a[1] + b[1]; out[2] = a[2] + b[2];
-    out[3] = c[0]; out[4] = c[1]; out[5] = c[2];
-}
-
-/* twist cross wrench: v x* f = (w x f_l, w x f_n + v_l x f_l) */
-static inline void cross_force(const double* v, const double* f, double* out) {
-    double a[3], b[3], c[3];
-    cross3(v + 3, f, a);
-    cross3(v + 3, f + 3, b);
-    cross3(v, f, c);
-    out[0] = a[0]; out[1] = a[1]; out[2] = a[2];
-    out[3] = b[0] + c[0]; out[4] = b[1] + c[1]; out[5] = b[2] + c[2];
-}
-
-/* spatial inertia (dynamic parameters) times a twist: (m v - h x w, I_O w + h x v) */
-static inline void inertia_mul(const double* pi, const double* v, double* out) {
-    double m = pi[0];
-    const double* h = pi + 1;
-    double hw[3], hv[3];
-    cross3(h, v + 3, hw);
-    cross3(h, v, hv);
-    out[0] = m * v[0] - hw[0]; out[1] = m * v[1] - hw[1]; out[2] = m * v[2] - hw[2];
-    out[3] = pi[4] * v[3] + pi[5] * v[4] + pi[7] * v[5] + hv[0];
-    out[4] = pi[5] * v[3] + pi[6] * v[4] + pi[8] * v[5] + hv[1];
-    out[5] = pi[7] * v[3] + pi[8] * v[4] + pi[9] * v[5] + hv[2];
-}
-
-static inline void mv6(const double* A, const double* x, double* out) {
-    int i;
-    for (i = 0; i < 6; i++)
-        out[i] = A[6 * i] * x[0] + A[6 * i + 1] * x[1] + A[6 * i + 2] * x[2] + A[6 * i + 3] * x[3] +
-                 A[6 * i + 4] * x[4] + A[6 * i + 5] * x[5];
-}
-
-static inline double dot6(const double* a, const double* b) {
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5];
-}
-
-/* The same transforms for a joint whose placement is a rotation about axis k (cosine c, sine s) and a
- * translation p: R x and R^T x cost 4 products instead of 9. */
-static const int PC_NEXT1[3] = {1, 2, 0}, PC_NEXT2[3] = {2, 0, 1};
-
-static inline void rot_axis_apply(int k, double c, double s, const double* x, double* o) {
-    int i = PC_NEXT1[k], j = PC_NEXT2[k];
-    double xi = x[i], xj = x[j];
-    o[k] = x[k]; o[i] = c * xi - s * xj; o[j] = s * xi + c * xj;
-}
-
-static inline void rot_axis_apply_t(int k, double c, double s, const double* x, double* o) {
-    int i = PC_NEXT1[k], j = PC_NEXT2[k];
-    double xi = x[i], xj = x[j];
-    o[k] = x[k]; o[i] = c * xi + s * xj; o[j] = -s * xi + c * xj;
-}
-
-static inline void motion_act_inv_axis(int k, double c, double s, const double* p, const double* m, double* out) {
-    double t[3], pw[3];
-    cross3(p, m + 3, pw);
-    t[0] = m[0] - pw[0]; t[1] = m[1] - pw[1]; t[2] = m[2] - pw[2];
-    rot_axis_apply_t(k, c, s, m + 3, out + 3);
-    rot_axis_apply_t(k, c, s, t, out);
-}
-
-static inline void force_act_axis(int k, double c, double s, const double* p, const double* f, double* out) {
-    double fl[3], n[3], pf[3];
-    rot_axis_apply(k, c, s, f, fl);
-    rot_axis_apply(k, c, s, f + 3, n);
-    cross3(p, fl, pf);
-    out[0] = fl[0]; out[1] = fl[1]; out[2] = fl[2];
-    out[3] = n[0] + pf[0]; out[4] = n[1] + pf[1]; out[5] = n[2] + pf[2];
-}
-
-/* Joint i's placement acting on a motion (parent -> child) or a force (child -> parent), with the
- * placements R (9 per joint), p (3) and cos/sin cs (2) of a configuration. */
-#define PC_MOTION_INV(m_, R_, p_, cs_, i_, in_, out_)                                                     \
-    ((m_)->joints[i_].axis_only                                                                         \
-         ? motion_act_inv_axis((m_)->joints[i_].kind, (cs_)[2 * (i_)], (cs_)[2 * (i_) + 1], (p_) + 3 * (i_), in_, out_) \
-         : motion_act_inv((R_) + 9 * (i_), (p_) + 3 * (i_), in_, out_))
-#define PC_FORCE_ACT(m_, R_, p_, cs_, i_, in_, out_)                                                      \
-    ((m_)->joints[i_].axis_only                                                                         \
-         ? force_act_axis((m_)->joints[i_].kind, (cs_)[2 * (i_)], (cs_)[2 * (i_) + 1], (p_) + 3 * (i_), in_, out_) \
-         : force_act((R_) + 9 * (i_), (p_) + 3 * (i_), in_, out_))
-
-/* Rotation of the joint about its axis by angle q (kind 0/1/2 = x/y/z), row-major. */
-static inline void axis_rotation(int kind, double q, double* R) {
-    double c = cos(q), s = sin(q);
-    int i = (kind + 1) % 3, j = (kind + 2) % 3;
-    memset(R, 0, 9 * sizeof(double));
-    R[4 * kind] = 1.0;
-    R[3 * i + i] = c; R[3 * i + j] = -s;
-    R[3 * j + i] = s; R[3 * j + j] = c;
-}
-
-/* quaternion (x, y, z, w) -> rotation matrix, Eigen's formula */
-static inline void quat_to_matrix(const double* q, double* R) {
-    double x = q[0], y = q[1], z = q[2], w = q[3];
-    double tx = 2 * x, ty = 2 * y, tz = 2 * z;
-    double twx = tx * w, twy = ty * w, twz = tz * w, txx = tx * x, txy = ty * x, txz = tz * x;
-    double tyy = ty * y, tyz = tz * y, tzz = tz * z;
-    R[0] = 1 - (tyy + tzz); R[1] = txy - twz; R[2] = txz + twy;
-    R[3] = txy + twz; R[4] = 1 - (txx + tzz); R[5] = tyz - twx;
-    R[6] = txz - twy; R[7] = tyz + twx; R[8] = 1 - (txx + tyy);
-}
+/* pc_integrator.c */
+int pc_step_internal(const pc_model_t* m, pc_data_t* d, double* q, double* v, double t, double h, pc_stages_t* S,
+                     double* xi_end, int warm);
 
 #endif

@@ -144,131 +144,142 @@ def export_fmu(
         For an unknown variant, integrator or FMI version.
     """
     fmpy = import_fmpy()
-    from postcapture._version import __version__
     from postcapture.config import load_scenario
     from postcapture.dynamics.build import build_system, initial_state
-    from postcapture.dynamics.integrators import TABLEAUX
-
-    from postcapture.fmi.export.c_header import write_c_header
-    from postcapture.fmi.export.compiler import compile_library, platform_folder, zip_fmu
-    from postcapture.fmi.export.interface import build_interface
-    from postcapture.fmi.export.model_description import DescriptionInfo, write_model_description
-    from postcapture.dynamics.compiled import source_files
+    from postcapture.fmi.export.compiler import zip_fmu
     from postcapture.fmi.export.plant_info import ExportPlant
 
     say = progress or (lambda msg: None)
-    if fmi_version != 2:
-        raise ValueError(
-            f"fmi_version: expected 2 (FMI 3.0 export is not implemented), found {fmi_version!r}"
-        )
     t_start = time.perf_counter()
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
-    integrator = integrator or scenario.estimation.integrator
-    if integrator not in TABLEAUX:
-        raise ValueError(f"integrator: expected one of {sorted(TABLEAUX)}, found {integrator!r}")
-    step = float(step if step is not None else scenario.estimation.model_step)
-    if not step > 0:
-        raise ValueError(f"step: expected a positive number of seconds, found {step}")
+    integrator, step = _check_settings(scenario, fmi_version, integrator, step)
     out_path = check_output_file(out_path)
     check_output_file(mapping_sidecar(out_path))
     ident = _identifier(model_identifier or f"{scenario.name}_{variant}")
     say("building the plant")
     system = build_system(scenario, variant, panel_segments=panel_segments, excitation=excitation)
     q0, v0 = initial_state(system)
-    x0 = np.concatenate([q0, v0])
     plant = ExportPlant(system)
-    key = hashlib.sha256(
-        "|".join(
-            [
-                scenario.model_dump_json(),
-                variant,
-                str(panel_segments),
-                str(excitation),
-                integrator,
-                repr(step),
-                str(directional_derivatives),
-                str(step_jacobian),
-                ident,
-                __version__,
-            ]
-        ).encode()
-    ).hexdigest()
-    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "postcapture:" + key)) + "}"
+    settings = _Settings(variant, panel_segments, excitation, integrator, step, directional_derivatives, step_jacobian,
+                         ident)
+    guid = _guid(scenario, settings)
     with tempfile.TemporaryDirectory(prefix="postcapture_fmu_") as tmp:
         root = Path(tmp) / "fmu"
-        sources = root / "sources"
         say("writing the sources")
         t0 = time.perf_counter()
-        sources.mkdir(parents=True)
-        n_y = len(plant.output_signals())
-        interface = build_interface(plant, x0, step_jacobian=step_jacobian, n_y=n_y, n_z=3 + plant.n_arm)
-        header = write_c_header(plant, interface, guid=guid, tableau=TABLEAUX[integrator], step=step, x0=x0,
-                                directional=directional_derivatives)
-        (sources / "pc_fmu_data.h").write_text(header)
-        for name, text in source_files().items():
-            (sources / name).write_text(text)
-        runtime = resources.files("postcapture.fmi") / "csrc"
-        for name in _RUNTIME:
-            (sources / name).write_text((runtime / name).read_text())
-        c_code = Path(fmpy.__file__).parent / "c-code"
-        for name in _FMI2_HEADERS:
-            shutil.copy(c_code / name, sources / name)
-        c_bytes = sum(p.stat().st_size for p in sources.glob("*.[ch]"))
+        interface, c_bytes = _write_sources(fmpy, root / "sources", plant, np.concatenate([q0, v0]), guid, settings)
         t_codegen = time.perf_counter() - t0
         say("compiling the shared library")
-        folder, suffix = platform_folder()
-        t_compile = compile_library(
-            sources,
-            Path(tmp) / "build",
-            root / "binaries" / folder / (ident + suffix),
-            fmu=str(out_path),
-        )
+        t_compile = _compile(root, Path(tmp) / "build", ident, out_path)
         say("writing modelDescription.xml and the mapping")
-        info = DescriptionInfo(
-            model_name=f"{scenario.name} ({variant})",
-            model_identifier=ident,
-            guid=guid,
-            description=scenario.description or f"postcapture plant of scenario {scenario.name}",
-            generation_tool=f"postcapture {__version__} (compiled plant core)",
-            directional_derivatives=directional_derivatives,
-            source_files=tuple(sorted(p.name for p in sources.glob("*.c"))),
-            stop_time=scenario.simulation.duration,
-            step=scenario.simulation.sample_period,
-            integrator=integrator,
-            variant=variant,
-            scenario=scenario.name,
-        )
-        xml = write_model_description(interface, info, None)
-        (root / "modelDescription.xml").write_text(xml)
-        mapping = _mapping(plant, interface, ident, guid, integrator, step)
-        (root / "resources").mkdir(exist_ok=True)
-        (root / MAPPING_RESOURCE).write_text(mapping.to_toml())
+        mapping = _write_description(root, scenario, interface, plant, guid, settings)
         zip_fmu(root, out_path)
     mapping_path = write_atomic(mapping_sidecar(out_path), lambda tmp: Path(tmp).write_text(mapping.to_toml()))
     total = time.perf_counter() - t_start
-    logger.info(
-        "exported %s in %.1f s (codegen %.1f s, compile %.1f s)", out_path, total, t_codegen, t_compile
-    )
+    logger.info("exported %s in %.1f s (codegen %.1f s, compile %.1f s)", out_path, total, t_codegen, t_compile)
     return ExportReport(
-        path=out_path,
-        mapping_path=mapping_path,
-        model_identifier=ident,
-        guid=guid,
-        fmi_version="2.0",
-        variant=variant,
-        integrator=integrator,
-        step=step,
-        n_states=plant.nx,
-        n_variables=len(interface.variables),
-        directional_derivatives=directional_derivatives,
-        step_jacobian=step_jacobian,
-        seconds=total,
-        seconds_codegen=t_codegen,
-        seconds_compile=t_compile,
-        c_bytes=c_bytes,
-        instructions={},
+        path=out_path, mapping_path=mapping_path, model_identifier=ident, guid=guid, fmi_version="2.0",
+        variant=variant, integrator=integrator, step=step, n_states=plant.nx, n_variables=len(interface.variables),
+        directional_derivatives=directional_derivatives, step_jacobian=step_jacobian, seconds=total,
+        seconds_codegen=t_codegen, seconds_compile=t_compile, c_bytes=c_bytes, instructions={},
     )
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """What an export was asked for (beyond the scenario)."""
+
+    variant: str
+    panel_segments: int | None
+    excitation: bool
+    integrator: str
+    step: float
+    directional: bool
+    step_jacobian: bool
+    ident: str
+
+
+def _check_settings(scenario: Scenario, fmi_version, integrator, step) -> tuple[str, float]:
+    from postcapture.dynamics.integrators import TABLEAUX
+
+    if fmi_version != 2:
+        raise ValueError(f"fmi_version: expected 2 (FMI 3.0 export is not implemented), found {fmi_version!r}")
+    integrator = integrator or scenario.estimation.integrator  # the filters' process model
+    if integrator not in TABLEAUX:
+        raise ValueError(f"integrator: expected one of {sorted(TABLEAUX)}, found {integrator!r}")
+    step = float(step if step is not None else scenario.estimation.model_step)
+    if not step > 0:
+        raise ValueError(f"step: expected a positive number of seconds, found {step}")
+    return integrator, step
+
+
+def _guid(scenario: Scenario, s: _Settings) -> str:
+    """A GUID that changes with everything the FMU's binary depends on."""
+    from postcapture._version import __version__
+
+    key = hashlib.sha256("|".join([
+        scenario.model_dump_json(), s.variant, str(s.panel_segments), str(s.excitation), s.integrator, repr(s.step),
+        str(s.directional), str(s.step_jacobian), s.ident, __version__,
+    ]).encode()).hexdigest()
+    return "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "postcapture:" + key)) + "}"
+
+
+def _write_sources(fmpy, sources: Path, plant, x0: np.ndarray, guid: str, s: _Settings):
+    """The data header, the core's sources, the FMI wrapper and FMI headers; returns the interface and C bytes."""
+    from postcapture.dynamics.compiled import source_files
+    from postcapture.dynamics.integrators import TABLEAUX
+    from postcapture.fmi.export.c_header import write_c_header
+    from postcapture.fmi.export.interface import build_interface
+
+    sources.mkdir(parents=True)
+    interface = build_interface(plant, x0, step_jacobian=s.step_jacobian, n_y=len(plant.output_signals()),
+                                n_z=3 + plant.n_arm)
+    header = write_c_header(plant, interface, guid=guid, tableau=TABLEAUX[s.integrator], step=s.step, x0=x0,
+                            directional=s.directional)
+    (sources / "pc_fmu_data.h").write_text(header)
+    for name, text in source_files().items():
+        (sources / name).write_text(text)
+    runtime = resources.files("postcapture.fmi") / "csrc"
+    for name in _RUNTIME:
+        (sources / name).write_text((runtime / name).read_text())
+    c_code = Path(fmpy.__file__).parent / "c-code"
+    for name in _FMI2_HEADERS:
+        shutil.copy(c_code / name, sources / name)
+    return interface, sum(p.stat().st_size for p in sources.glob("*.[ch]"))
+
+
+def _compile(root: Path, build: Path, ident: str, out_path: Path) -> float:
+    from postcapture.fmi.export.compiler import compile_library, platform_folder
+
+    folder, suffix = platform_folder()
+    return compile_library(root / "sources", build, root / "binaries" / folder / (ident + suffix), fmu=str(out_path))
+
+
+def _write_description(root: Path, scenario: Scenario, interface, plant, guid: str, s: _Settings) -> Mapping:
+    """modelDescription.xml and the embedded mapping; returns the mapping."""
+    from postcapture._version import __version__
+    from postcapture.fmi.export.model_description import DescriptionInfo, write_model_description
+
+    info = DescriptionInfo(
+        model_name=f"{scenario.name} ({s.variant})",
+        model_identifier=s.ident,
+        guid=guid,
+        description=scenario.description or f"postcapture plant of scenario {scenario.name}",
+        generation_tool=f"postcapture {__version__} (compiled plant core)",
+        directional_derivatives=s.directional,
+        source_files=tuple(sorted(p.name for p in (root / "sources").glob("*.c"))),
+        stop_time=scenario.simulation.duration,
+        step=scenario.simulation.sample_period,
+        integrator=s.integrator,
+        variant=s.variant,
+        scenario=scenario.name,
+    )
+    (root / "modelDescription.xml").write_text(write_model_description(interface, info, None))
+    mapping = _mapping(plant, interface, s.ident, guid, s.integrator, s.step)
+    (root / "resources").mkdir(exist_ok=True)
+    (root / MAPPING_RESOURCE).write_text(mapping.to_toml())
+    return mapping
 
 
 def _mapping(plant, interface, ident: str, guid: str, integrator: str, step: float) -> Mapping:

@@ -85,10 +85,8 @@ class Interface:
 
 def _coordinate_labels(plant: ExportPlant):
     """Description and units of each configuration and velocity coordinate."""
-    model = plant.model
     q_lab, q_unit, v_lab, v_unit = [""] * plant.nq, [""] * plant.nq, [""] * plant.nv, [""] * plant.nv
-    for _i, _parent, kind, iq, iv, _R, _p in plant.joints:
-        name = model.names[_i]
+    for name, _parent, kind, iq, iv, _R, _p in plant.joints:
         if kind < 0:
             for k, c in enumerate("xyz"):
                 q_lab[iq + k], q_unit[iq + k] = f"{name}: position {c} in N", "m"
@@ -108,146 +106,82 @@ def _coordinate_labels(plant: ExportPlant):
 _DER_UNIT = {"m": "m/s", "1": "1/s", "rad": "rad/s", "m/s": "m/s2", "rad/s": "rad/s2"}
 
 
+class _Table:
+    """The variables in value-reference order and each block's range."""
+
+    def __init__(self):
+        self.variables: list[ScalarVariable] = []
+        self.blocks: dict[str, tuple[int, int]] = {}
+
+    def block(self, name: str, rows: list[dict]) -> None:
+        first = len(self.variables)
+        for kw in rows:
+            self.variables.append(ScalarVariable(valueReference=len(self.variables), block=name, **kw))
+        self.blocks[name] = (first, len(self.variables) - first)
+
+
+def _state_blocks(t: _Table, plant: ExportPlant, x0: np.ndarray, x_names: list[str]) -> list[str]:
+    """States, their derivatives and the named outputs; returns the states' units."""
+    q_lab, q_unit, v_lab, v_unit = _coordinate_labels(plant)
+    x_labels, x_units = q_lab + v_lab, q_unit + v_unit
+    t.block("x", [dict(name=name, causality="output", variability="continuous", initial="exact",
+                       description=f"state: {x_labels[i]}", unit=x_units[i], start=float(x0[i]))
+                  for i, name in enumerate(x_names)])
+    t.block("dx", [dict(name=f"der({name})", causality="local", variability="continuous", initial="calculated",
+                        description=f"time derivative of {name}", unit=_DER_UNIT[x_units[i]], derivative=i + 1)
+                   for i, name in enumerate(x_names)])
+    t.block("y", [dict(name=s.name, causality="output", variability="continuous", initial="calculated",
+                       description=s.description, unit=s.unit) for s in plant.output_signals()])
+    return x_units
+
+
+def _input_blocks(t: _Table, plant: ExportPlant, x0: np.ndarray, x_names: list[str], x_units: list[str]) -> None:
+    """Tunable parameters, inputs, the state correction, the reset flag and the Jacobian request."""
+    t.block("p", [dict(name=p.name, causality="parameter", variability="tunable", initial="exact",
+                       description=p.description, unit=p.unit, start=p.value) for p in plant.parameters])
+    channels = list(CHASER_CHANNELS) + [f"joint_{i + 1}" for i in range(plant.n_arm)]
+    units = ["N"] * 3 + ["N.m"] * 3 + ["N.m"] * plant.n_arm
+    t.block("u", [dict(name=ch, causality="input", variability="continuous", initial=None,
+                       description=f"{ch}: added to the embedded excitation, held over a communication step",
+                       unit=unit, start=0.0) for ch, unit in zip(channels, units, strict=True)])
+    t.block("xc", [dict(name=f"x_corr[{i + 1}]", causality="input", variability="discrete", initial=None,
+                        description=f"correction of {name}: replaces it at the start of fmi2DoStep when reset > 0.5",
+                        unit=x_units[i], start=float(x0[i])) for i, name in enumerate(x_names)])
+    t.block("reset", [dict(name="reset", causality="input", variability="discrete", initial=None, start=0.0,
+                           description="when > 0.5 at the start of fmi2DoStep, the state is replaced by x_corr",
+                           unit="1")])
+    t.block("jreq", [dict(name="jacobian_request", causality="input", variability="discrete", initial=None, start=0.0,
+                          description="when > 0.5, fmi2DoStep also computes the outputs F, g, H, h", unit="1")])
+
+
+def _jacobian_block(t: _Table, nt: int, n_z: int) -> None:
+    """Discrete outputs ``F[i,j]``, ``g[i]``, ``H[i,j]``, ``h[i]``, row by row."""
+    rows = []
+    for symbol, n_rows, cols, description in (
+        ("F", nt, nt, "step Jacobian d x_k+1 / d x_k (tangent coordinates)"),
+        ("g", nt, None, "d x_k+1 / d target_mass (tangent coordinates)"),
+        ("H", n_z, nt, "measurement Jacobian d z_k+1 / d x_k+1 (tangent coordinates)"),
+        ("h", n_z, None, "d z_k+1 / d target_mass at fixed state"),
+    ):
+        for i in range(n_rows):
+            for j in range(cols or 1):
+                name = f"{symbol}[{i + 1},{j + 1}]" if cols else f"{symbol}[{i + 1}]"
+                rows.append(dict(name=name, causality="output", variability="discrete", initial="calculated",
+                                 description=description))
+    t.block("jac", rows)
+
+
 def build_interface(
     plant: ExportPlant, x0: np.ndarray, *, step_jacobian: bool, n_y: int, n_z: int
 ) -> Interface:
     """The variable table of an FMU of ``plant`` starting at ``x0`` (nx,)."""
-    variables: list[ScalarVariable] = []
-    blocks: dict[str, tuple[int, int]] = {}
-
-    def add(block, **kw):
-        variables.append(ScalarVariable(valueReference=len(variables), block=block, **kw))
-
-    def begin(block):
-        blocks[block] = (len(variables), 0)
-
-    def end(block):
-        first, _ = blocks[block]
-        blocks[block] = (first, len(variables) - first)
-
-    q_lab, q_unit, v_lab, v_unit = _coordinate_labels(plant)
-    x_names = [f"q[{i + 1}]" for i in range(plant.nq)] + [f"v[{i + 1}]" for i in range(plant.nv)]
-    x_labels, x_units = q_lab + v_lab, q_unit + v_unit
-    begin("x")
-    for i, name in enumerate(x_names):
-        add(
-            "x",
-            name=name,
-            causality="output",
-            variability="continuous",
-            initial="exact",
-            description=f"state: {x_labels[i]}",
-            unit=x_units[i],
-            start=float(x0[i]),
-        )
-    end("x")
-    begin("dx")
-    for i, name in enumerate(x_names):
-        add(
-            "dx",
-            name=f"der({name})",
-            causality="local",
-            variability="continuous",
-            initial="calculated",
-            description=f"time derivative of {name}",
-            unit=_DER_UNIT[x_units[i]],
-            derivative=i + 1,
-        )
-    end("dx")
-    begin("y")
-    for s in plant.output_signals():
-        add(
-            "y",
-            name=s.name,
-            causality="output",
-            variability="continuous",
-            initial="calculated",
-            description=s.description,
-            unit=s.unit,
-        )
-    end("y")
     if len(plant.output_signals()) != n_y:
         raise RuntimeError(f"output table has {len(plant.output_signals())} entries, generated code {n_y}")
-    begin("p")
-    for p in plant.parameters:
-        add(
-            "p",
-            name=p.name,
-            causality="parameter",
-            variability="tunable",
-            initial="exact",
-            description=p.description,
-            unit=p.unit,
-            start=p.value,
-        )
-    end("p")
-    channels = list(CHASER_CHANNELS) + [f"joint_{i + 1}" for i in range(plant.n_arm)]
-    units = ["N"] * 3 + ["N.m"] * 3 + ["N.m"] * plant.n_arm
-    begin("u")
-    for ch, unit in zip(channels, units, strict=True):
-        add(
-            "u",
-            name=ch,
-            causality="input",
-            variability="continuous",
-            initial=None,
-            description=f"{ch}: added to the embedded excitation, held over a communication step",
-            unit=unit,
-            start=0.0,
-        )
-    end("u")
-    begin("xc")
-    for i, name in enumerate(x_names):
-        add(
-            "xc",
-            name=f"x_corr[{i + 1}]",
-            causality="input",
-            variability="discrete",
-            initial=None,
-            description=f"correction of {name}: replaces it at the start of fmi2DoStep when reset > 0.5",
-            unit=x_units[i],
-            start=float(x0[i]),
-        )
-    end("xc")
-    begin("reset")
-    add(
-        "reset",
-        name="reset",
-        causality="input",
-        variability="discrete",
-        initial=None,
-        start=0.0,
-        description="when > 0.5 at the start of fmi2DoStep, the state is replaced by x_corr",
-        unit="1",
-    )
-    end("reset")
-    begin("jreq")
-    add(
-        "jreq",
-        name="jacobian_request",
-        causality="input",
-        variability="discrete",
-        initial=None,
-        start=0.0,
-        description="when > 0.5, fmi2DoStep also computes the outputs F, g, H, h",
-        unit="1",
-    )
-    end("jreq")
+    t = _Table()
+    x_names = [f"q[{i + 1}]" for i in range(plant.nq)] + [f"v[{i + 1}]" for i in range(plant.nv)]
+    x_units = _state_blocks(t, plant, x0, x_names)
+    _input_blocks(t, plant, x0, x_names, x_units)
     nt = 2 * plant.nv
     if step_jacobian:
-        begin("jac")
-
-        def outputs(symbol: str, rows: int, cols: int | None, description: str) -> None:
-            """Discrete outputs ``symbol[i,j]`` (or ``symbol[i]``), row by row."""
-            for i in range(rows):
-                for j in range(cols or 1):
-                    name = f"{symbol}[{i + 1},{j + 1}]" if cols else f"{symbol}[{i + 1}]"
-                    add("jac", name=name, causality="output", variability="discrete", initial="calculated",
-                        description=description)
-
-        outputs("F", nt, nt, "step Jacobian d x_k+1 / d x_k (tangent coordinates)")
-        outputs("g", nt, None, "d x_k+1 / d target_mass (tangent coordinates)")
-        outputs("H", n_z, nt, "measurement Jacobian d z_k+1 / d x_k+1 (tangent coordinates)")
-        outputs("h", n_z, None, "d z_k+1 / d target_mass at fixed state")
-        end("jac")
-    return Interface(variables, blocks, nx=plant.nx, nt=nt, nz=n_z, step_jacobian=step_jacobian)
+        _jacobian_block(t, nt, n_z)
+    return Interface(t.variables, t.blocks, nx=plant.nx, nt=nt, nz=n_z, step_jacobian=step_jacobian)

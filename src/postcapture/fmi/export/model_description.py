@@ -59,69 +59,51 @@ def write_model_description(
     -------
     str
     """
-    root = ET.Element(
-        "fmiModelDescription",
-        {
-            "fmiVersion": "2.0",
-            "modelName": info.model_name,
-            "guid": info.guid,
-            "description": info.description,
-            "generationTool": info.generation_tool,
-            "variableNamingConvention": "flat",
-            "numberOfEventIndicators": "0",
-        },
-    )
-    cs = ET.SubElement(
-        root,
-        "CoSimulation",
-        {
-            "modelIdentifier": info.model_identifier,
-            "canHandleVariableCommunicationStepSize": "true",
-            "canNotUseMemoryManagementFunctions": "true",
-            "canGetAndSetFMUstate": "true",
-            "canSerializeFMUstate": "true",
-            "providesDirectionalDerivative": "true" if info.directional_derivatives else "false",
-        },
-    )
+    root = _header(interface, info)
+    _variables(ET.SubElement(root, "ModelVariables"), interface)
+    _structure(ET.SubElement(root, "ModelStructure"), interface, dependencies)
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _header(interface: Interface, info: DescriptionInfo) -> ET.Element:
+    """The root element with the co-simulation capabilities, units, log categories, experiment, vendor data."""
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": info.model_name, "guid": info.guid, "description": info.description,
+        "generationTool": info.generation_tool, "variableNamingConvention": "flat", "numberOfEventIndicators": "0",
+    })
+    cs = ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": info.model_identifier,
+        "canHandleVariableCommunicationStepSize": "true",
+        "canNotUseMemoryManagementFunctions": "true",
+        "canGetAndSetFMUstate": "true",
+        "canSerializeFMUstate": "true",
+        "providesDirectionalDerivative": "true" if info.directional_derivatives else "false",
+    })
     files = ET.SubElement(cs, "SourceFiles")
     for f in info.source_files:
         ET.SubElement(files, "File", {"name": f})
     units = ET.SubElement(root, "UnitDefinitions")
-    used = sorted({v.unit for v in interface.variables if v.unit is not None})
-    for name in used:
+    for name in sorted({v.unit for v in interface.variables if v.unit is not None}):
         unit = ET.SubElement(units, "Unit", {"name": name})
         ET.SubElement(unit, "BaseUnit", {k: str(e) for k, e in UNITS[name].items()})
     cats = ET.SubElement(root, "LogCategories")
     ET.SubElement(cats, "Category", {"name": "logStatusError", "description": "errors"})
     ET.SubElement(cats, "Category", {"name": "logEvents", "description": "information"})
-    ET.SubElement(
-        root,
-        "DefaultExperiment",
-        {"startTime": "0.0", "stopTime": _fmt(info.stop_time), "stepSize": _fmt(info.step)},
-    )
-    vendor = ET.SubElement(root, "VendorAnnotations")
-    tool = ET.SubElement(vendor, "Tool", {"name": "postcapture"})
-    ET.SubElement(
-        tool,
-        "Plant",
-        {
-            "scenario": info.scenario,
-            "variant": info.variant,
-            "integrator": info.integrator,
-            "step": _fmt(info.step),
-            "stateCorrection": "x_corr + reset",
-            "stepJacobian": "true" if interface.step_jacobian else "false",
-        },
-    )
-    mv = ET.SubElement(root, "ModelVariables")
+    ET.SubElement(root, "DefaultExperiment",
+                  {"startTime": "0.0", "stopTime": _fmt(info.stop_time), "stepSize": _fmt(info.step)})
+    tool = ET.SubElement(ET.SubElement(root, "VendorAnnotations"), "Tool", {"name": "postcapture"})
+    ET.SubElement(tool, "Plant", {
+        "scenario": info.scenario, "variant": info.variant, "integrator": info.integrator, "step": _fmt(info.step),
+        "stateCorrection": "x_corr + reset", "stepJacobian": "true" if interface.step_jacobian else "false",
+    })
+    return root
+
+
+def _variables(mv: ET.Element, interface: Interface) -> None:
     for v in interface.variables:
-        attrs = {
-            "name": v.name,
-            "valueReference": str(v.valueReference),
-            "description": v.description,
-            "causality": v.causality,
-            "variability": v.variability,
-        }
+        attrs = {"name": v.name, "valueReference": str(v.valueReference), "description": v.description,
+                 "causality": v.causality, "variability": v.variability}
         if v.initial is not None:
             attrs["initial"] = v.initial
         sv = ET.SubElement(mv, "ScalarVariable", attrs)
@@ -133,15 +115,22 @@ def write_model_description(
         if v.derivative is not None:
             real["derivative"] = str(v.derivative)
         ET.SubElement(sv, "Real", real)
-    ms = ET.SubElement(root, "ModelStructure")
-    outputs = ET.SubElement(ms, "Outputs")
+
+
+def _structure(ms: ET.Element, interface: Interface, dependencies: dict[int, list[int]] | None) -> None:
+    """Outputs, derivatives and initial unknowns with their dependencies (1-based variable indices)."""
     index = {v.valueReference: i + 1 for i, v in enumerate(interface.variables)}
+
+    def deps(v) -> str:
+        return " ".join(str(index[k]) for k in dependencies[v.valueReference])
+
+    outputs = ET.SubElement(ms, "Outputs")
     for v in interface.variables:
         if v.causality != "output":
             continue
         attrs = {"index": str(index[v.valueReference])}
         if v.block == "y" and dependencies is not None:
-            attrs["dependencies"] = " ".join(str(index[k]) for k in dependencies[v.valueReference])
+            attrs["dependencies"] = deps(v)
         elif v.block == "jac":
             attrs["dependencies"] = ""
         ET.SubElement(outputs, "Unknown", attrs)
@@ -150,11 +139,9 @@ def write_model_description(
         if v.block == "dx":
             attrs = {"index": str(index[v.valueReference])}
             if dependencies is not None:
-                attrs["dependencies"] = " ".join(str(index[k]) for k in dependencies[v.valueReference])
+                attrs["dependencies"] = deps(v)
             ET.SubElement(ders, "Unknown", attrs)
     init = ET.SubElement(ms, "InitialUnknowns")
     for v in interface.variables:
-        if v.block in ("dx",) or (v.causality == "output" and v.initial == "calculated"):
+        if v.block == "dx" or (v.causality == "output" and v.initial == "calculated"):
             ET.SubElement(init, "Unknown", {"index": str(index[v.valueReference])})
-    ET.indent(root, space="  ")
-    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

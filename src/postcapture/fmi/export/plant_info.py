@@ -15,7 +15,7 @@ from postcapture.dynamics.system import System
 
 __all__ = ["Parameter", "OutputSignal", "ExportPlant"]
 
-_KIND = {"JointModelFreeFlyer": -1, "JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2}
+_KIND = {"free_flyer": -1, "rx": 0, "ry": 1, "rz": 2}
 
 
 @dataclass(frozen=True)
@@ -60,28 +60,22 @@ class ExportPlant:
     """
 
     def __init__(self, system: System):
-        model = system.model
+        tree = system.tree
         layout = system.layout
         if not layout.free_flyer:
             raise ValueError("the FMU export needs a free-flyer chaser")
         self.system = system
-        self.model = model
+        self.tree = tree
         self.layout = layout
         self.packed: Packed = pack(system)
-        self.nq, self.nv, self.n_u = model.nq, model.nv, system.n_u
+        self.nq, self.nv, self.n_u = tree.nq, tree.nv, system.n_u
         self.nx = self.nq + self.nv
         self.n_arm = layout.n_arm
         self.arm_v = np.asarray(layout.arm_v, dtype=int)
         self.has_target = layout.has_target
         self.free_flyer = True
-        self.joints = []
-        for i in range(1, model.njoints):
-            short = model.joints[i].shortname()
-            if short not in _KIND:
-                raise ValueError(f"joint {model.names[i]!r}: unsupported joint type {short} (free flyer, RX, RY, RZ)")
-            M = model.jointPlacements[i]
-            self.joints.append((i, int(model.parents[i]), _KIND[short], model.joints[i].idx_q, model.joints[i].idx_v,
-                                M.rotation.copy(), M.translation.copy()))
+        self.joints = [(J.name, J.parent, _KIND[J.kind], J.iq, J.iv, J.rotation.copy(), J.translation.copy())
+                       for J in tree.joints]
         params = []
         if self.has_target:
             params.append(Parameter("target_mass", float(system.target_mass), "kg",
