@@ -179,16 +179,16 @@ def simulate(
                           excitation=excitation).with_updates(parameters or {})
     duration = sim.duration if duration is None else duration
     sample_period = sim.sample_period if sample_period is None else sample_period
+    integrator = sim.integrator if integrator is None else integrator
+    step = sim.step if step is None else step
+    chosen = step is None  # the truth's step from its declared accuracy (the pilot below)
     # refused before the initial state is solved (a huge model's relaxation alone can take long)
-    check_resources(estimate_simulation(nv=system.nv, duration=duration, step=sim.step if step is None else step,
-                                        sample_period=sample_period, integrator=integrator or sim.integrator))
+    check_resources(estimate_simulation(nv=system.nv, duration=duration,
+                                        step=truth_step_guess(sample_period) if chosen else step,
+                                        sample_period=sample_period, integrator=integrator))
     q0, v0 = initial_state(system)
     newton = None
-    integrator = sim.integrator if integrator is None else integrator
-    chosen = step is None and sim.step is None
-    if chosen:  # the truth's step from its declared accuracy, after a check that the run is not absurd
-        check_resources(estimate_simulation(nv=system.nv, duration=duration, step=truth_step_guess(sample_period),
-                                            sample_period=sample_period, integrator=integrator))
+    if chosen:
         newton = newton_for(sim.tolerance)
         step = choose_step(system, q0, v0, duration=duration, sample_period=sample_period, tolerance=sim.tolerance,
                            joint_tolerance=sim.joint_tolerance, rate_tolerance=sim.rate_tolerance, method=integrator)
@@ -197,7 +197,7 @@ def simulate(
         q0,
         v0,
         duration,
-        step=sim.step if step is None else step,
+        step=step,
         sample_period=sample_period,
         integrator=integrator,
         progress=progress,
