@@ -189,11 +189,11 @@ def test_a_killed_worker_loses_no_run(envisat, tmp_path):
                       dashboard_address=":0") as cluster, Client(cluster) as client:
         pids = client.run(os.getpid)
 
-        def progress(message, done, total):
+        def progress(task, fraction):
             # after the first run both workers hold queued runs (6 runs, 2 workers), so either one is busy; the
             # callback runs on the campaign's own client, so it must not call this test's client (another
             # event loop: asyncio refuses an Event bound to a different loop)
-            if done >= 1 and not killed:
+            if fraction > 0 and not killed:
                 address, pid = next(iter(pids.items()))
                 os.kill(pid, signal.SIGKILL)
                 killed.append(address)
@@ -209,15 +209,15 @@ def test_a_killed_worker_loses_no_run(envisat, tmp_path):
 def test_an_interrupted_campaign_resumes_and_merges_to_the_same_results(envisat, tmp_path):
     settings = dict(runs=4, dispersed=True, cases=("mekf_flexible",), duration=6.0, crlb=False, workers=0)
 
-    def interrupt(message, done, total):
-        if done == 2:
+    def interrupt(task, fraction):
+        if fraction == 0.5:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
         run_campaign(envisat, out=tmp_path / "c", progress=interrupt, **settings)
-    messages = []
-    resumed = run_campaign(envisat, out=tmp_path / "c", progress=lambda m, d, t: messages.append(m), **settings)
-    assert resumed.resumed == 2 and messages[0] == "resuming: 2 of 4 runs already saved"
+    reports = []
+    resumed = run_campaign(envisat, out=tmp_path / "c", progress=lambda task, f: reports.append((task, f)), **settings)
+    assert resumed.resumed == 2 and reports == [("runs", 0.5), ("runs", 0.75), ("runs", 1.0)]
     _same_runs(resumed, run_campaign(envisat, **settings))
     with pytest.raises(ScenarioError, match=r"--out: expected a new folder, or this campaign's own .*runs"):
         run_campaign(envisat, out=tmp_path / "c", **{**settings, "runs": 5})

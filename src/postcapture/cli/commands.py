@@ -35,7 +35,9 @@ def _display(args, command: str) -> ProgressDisplay:
 
 
 def _print_json(obj) -> None:
-    print(json.dumps(obj, indent=2, default=float))
+    from postcapture.io import json_text
+
+    print(json_text(obj))
 
 
 def _echo(text: str, *, file=None) -> None:
@@ -195,15 +197,10 @@ def cmd_campaign(args) -> int:
     with _display(args, "campaign") as shown:
         shown.phase(f"{args.runs} runs")
 
-        def progress(message, done, total):
-            if message.startswith("resuming"):
-                _note(f"{message} in {args.out}")  # said whatever the display: earlier runs are reused
-            shown.task("runs", done / total if total else 1.0)
-
         result = run_campaign(scenario, runs=args.runs, dispersed=args.dispersed, truth=truth, profile=args.profile,
                               cases=args.cases, duration=args.duration, initial_mass_error=args.initial_mass_error,
                               scheduler=args.scheduler, workers=args.workers, out=args.out, fresh=args.fresh,
-                              crlb=not args.no_crlb, progress=progress)
+                              crlb=not args.no_crlb, progress=shown.task)
         shown.phase("writing results" + ("" if args.no_plots else " and figures"))
         paths = write_campaign(result, args.out, figures=not args.no_plots)
     summary = result.summary()
@@ -362,3 +359,10 @@ def cmd_panel_calibrate(args) -> int:
         if args.out:
             _echo(f"tables, JSON, TOML fragment and figures written to {args.out}")
     return 0
+
+
+def cmd_scenario_show(args) -> int:
+    raise NotImplementedError
+
+
+cmd_scenario_new = cmd_scenario_validate = cmd_scenario_reference = cmd_scenario_show

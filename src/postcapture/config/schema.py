@@ -17,6 +17,7 @@ from postcapture.config.excitation import Excitation, channel_index
 from postcapture.config.faults import Fault, JointFault, fault_window
 from postcapture.config.uncertainty import Uncertainty
 from postcapture.config.flexibility import refine_stiffness
+from postcapture.config.names import INTEGRATORS, MAX_SEGMENTS, PROFILES, VARIANTS
 from postcapture.config.types import (
     AxisName,
     Frozen,
@@ -46,11 +47,7 @@ __all__ = [
     "MAX_SEGMENTS",
 ]
 
-INTEGRATORS = ("sdirk4", "sdirk3", "sdirk2", "rk4")
 ARCSEC = 4.84813681109536e-06  # rad
-VARIANTS = ("flexible", "stiff", "rigid")
-MAX_SEGMENTS = 1000
-"""Most segments a panel may be cut into (scenario files and :meth:`Panel.with_segments` alike)."""
 Inertia = Annotated[Mat3, check_inertia]
 
 
@@ -188,12 +185,12 @@ class Simulation(Frozen):
     """
 
     duration: PositiveFloat = 100.0
-    integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk3"
+    integrator: Literal[INTEGRATORS] = "sdirk3"
     step: PositiveFloat = 0.1
     sample_period: PositiveFloat = 0.1
     tolerance: PositiveFloat | None = None
     joint_tolerance: PositiveFloat | None = 1.0e-4
-    truth_integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
+    truth_integrator: Literal[INTEGRATORS] = "sdirk4"
 
     @model_validator(mode="after")
     def _grid(self):
@@ -237,9 +234,9 @@ class Scenario(Frozen):
             raise problem("an arm to hold the target", "a target without an arm")
         n_arm = len(self.arm.joints) if self.arm is not None else 0
         for section in ("sensors", "tuning"):
-            unknown = sorted(set(getattr(self.estimation, section)) - {"reference", "realistic"})
+            unknown = sorted(set(getattr(self.estimation, section)) - set(PROFILES))
             if unknown:
-                raise problem("profiles among reference, realistic", unknown, f"estimation.{section}")
+                raise problem(f"profiles among {', '.join(PROFILES)}", unknown, f"estimation.{section}")
         for i, fault in enumerate(self.faults):
             if isinstance(fault, JointFault) and fault.joint > n_arm:
                 raise problem(f"a joint among the arm's joints 1..{n_arm}", fault.joint, f"faults[{i}].joint")

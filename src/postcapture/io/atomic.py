@@ -144,6 +144,23 @@ def _check_parent(p: Path) -> None:
         raise OutputPathError(errno.ENOTDIR, f"{parent} is {_kind(st.st_mode)}, not a folder", str(p))
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputPathError(errno.EACCES, f"no permission to create files in {parent}", str(p))
+    _probe(parent, p)
+
+
+def _probe(folder: Path, target: Path) -> None:
+    """Create and remove an empty file in ``folder``: permissions alone do not tell (``/proc``, a read-only
+    or full file system, a root user's ``access``)."""
+    probe = folder / temp_name(target.name[:_NAME_MAX - _DECORATION] or "out", ".probe")
+    try:
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except OSError as exc:
+        raise OutputPathError(exc.errno or errno.EIO, f"cannot create files in {folder}: {exc.strerror or exc}",
+                              str(target)) from None
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:
+        pass
 
 
 def check_output_file(path) -> Path:
@@ -247,7 +264,11 @@ def write_atomic(path, writer: Callable[[str], object]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale(path.parent, path.name)
     tmp = path.parent / temp_name(path.name, ".tmp")
-    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))  # umask gives the usual permissions
+    try:
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))  # umask gives the usual permissions
+    except OSError as exc:  # the message names the target, not our temporary
+        raise OutputPathError(exc.errno or errno.EIO, f"cannot create a file beside it: {exc.strerror or exc}",
+                              str(path)) from None
     try:
         try:
             writer(str(tmp))
