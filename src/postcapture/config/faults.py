@@ -17,14 +17,18 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field, model_validator
 
-from postcapture.config.types import Frozen, NonNegativeFloat, Vec3, problem
+from postcapture.config.types import Frozen, Instant, Vec3, problem
 
-__all__ = ["Outage", "BiasStep", "JointFault", "Fault", "FAULT_KINDS", "fault_window"]
+__all__ = ["Outage", "BiasStep", "JointFault", "Fault", "FAULT_KINDS", "STEP_LIMITS", "fault_window"]
+
+STEP_LIMITS = {"gyro_bias_step": (0.01, "rad/s"), "accelerometer_bias_step": (1.0, "m/s^2")}
+"""Largest bias step per axis: 0.01 rad/s is 2000 deg/h, 1 m/s^2 a tenth of a g; no sensor that jumps further
+is a sensor with a bias."""
 
 
 class _Window(Frozen):
-    start: NonNegativeFloat
-    stop: NonNegativeFloat | None = None
+    start: Instant
+    stop: Instant | None = None
 
     @model_validator(mode="after")
     def _order(self):
@@ -43,15 +47,22 @@ class BiasStep(Frozen):
     """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``."""
 
     kind: Literal["gyro_bias_step", "accelerometer_bias_step"]
-    time: NonNegativeFloat
-    step: Vec3
+    time: Instant
+    step: Vec3 = Field(json_schema_extra={"unit": "rad/s or m/s^2", "limit": "0.01 rad/s (gyro), 1 m/s^2 (accelerometer)"})
+
+    @model_validator(mode="after")
+    def _physical(self):
+        limit, unit = STEP_LIMITS[self.kind]
+        if max(abs(x) for x in self.step) > limit:
+            raise problem(f"a bias step of at most {limit:g} {unit} per axis", list(self.step), field="step")
+        return self
 
 
 class JointFault(_Window):
     """Joint ``joint`` (1-based) sensor stuck at its last value, or silent, on ``[start, stop)``."""
 
     kind: Literal["joint_stuck", "joint_dropout"]
-    joint: int = Field(ge=1)
+    joint: int = Field(ge=1, le=1000)
 
 
 Fault = Annotated[Union[Outage, BiasStep, JointFault], Field(discriminator="kind")]

@@ -6,6 +6,7 @@ Whatever the file holds (any bytes, any nesting, any number), :func:`load_scenar
 
 from __future__ import annotations
 
+import difflib
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -15,6 +16,7 @@ from pydantic import ValidationError
 
 from postcapture.config.faults import FAULT_KINDS
 from postcapture.config.schema import Scenario
+from postcapture.config.types import NAME_PATTERN
 from postcapture.core.errors import Problem, ScenarioError
 
 __all__ = ["MAX_FILE_BYTES", "builtin_scenarios", "load_scenario", "scenario_from_dict", "problems_from_validation"]
@@ -82,16 +84,87 @@ def _expected(err: dict) -> str:
     if kind == "literal_error":
         return "one of " + str(ctx.get("expected", ""))
     if kind == "union_tag_invalid":
-        return "kind one of " + str(ctx.get("expected_tags", ""))
+        tags = [t.strip(" '") for t in str(ctx.get("expected_tags", "")).split(",")]
+        return "kind one of " + ", ".join(tags)
+    if kind == "string_pattern_mismatch":
+        if ctx.get("pattern") == NAME_PATTERN:
+            return "a name: an ASCII letter, then up to 63 ASCII letters, digits, '_', '.' or '-'"
+        return "text without control characters (tab and newline allowed)"
+    if kind == "string_too_long":
+        return f"at most {ctx.get('max_length')} characters"
     if kind == "union_tag_not_found":
         kinds = FAULT_KINDS if err["loc"][:1] == ("faults",) else ("step", "sine", "chirp", "table")
         return f"a 'kind' key ({', '.join(kinds)})"
     return err["msg"]
 
 
+def _did_you_mean(word, options) -> str:
+    """``" (did you mean 'mass'?)"`` when ``word`` is close to one of ``options``."""
+    if not isinstance(word, str) or not options:
+        return ""
+    close = difflib.get_close_matches(word, [str(o) for o in options], n=2, cutoff=0.6)
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+
+
+def _hint(err: dict) -> str:
+    """A "did you mean" for a misspelt key, kind or choice."""
+    kind, ctx = err["type"], err.get("ctx") or {}
+    if kind == "extra_forbidden" and err["loc"]:
+        return _did_you_mean(err["loc"][-1], _known_keys(err["loc"][:-1]))
+    if kind == "union_tag_invalid":
+        return _did_you_mean(ctx.get("tag"), [t.strip(" '") for t in str(ctx.get("expected_tags", "")).split(",")])
+    if kind == "literal_error":
+        return _did_you_mean(err.get("input"), _literal_options(ctx))
+    return ""
+
+
+def _literal_options(ctx: dict) -> list[str]:
+    return [t.strip(" '") for t in str(ctx.get("expected", "")).replace(" or ", ",").split(",") if t.strip(" '")]
+
+
+def _known_keys(loc: tuple) -> list[str]:
+    """The keys the schema allows at ``loc`` (a pydantic error location), for "did you mean"."""
+    model = Scenario
+    for part in loc:
+        if isinstance(part, int) or model is None:
+            continue
+        if part in _UNION_TAGS or "[" in str(part):
+            model = _union_member(model, part)
+            continue
+        field = model.model_fields.get(part) if hasattr(model, "model_fields") else None
+        model = _model_of(field.annotation) if field is not None else None
+    return sorted(model.model_fields) if hasattr(model, "model_fields") else []
+
+
+def _model_of(annotation):
+    """The first pydantic model inside an annotation (``Panel`` in ``tuple[Panel, ...] | None``)."""
+    if isinstance(annotation, type) and hasattr(annotation, "model_fields"):
+        return annotation
+    for arg in getattr(annotation, "__args__", ()) or ():
+        found = _model_of(arg)
+        if found is not None:
+            return found
+    origin = getattr(annotation, "__origin__", None)
+    return _model_of(origin) if origin is not None and origin is not annotation else None
+
+
+def _union_member(model, tag):
+    """The member of a tagged union (excitation or fault kinds) named by ``tag``."""
+    from postcapture.config.excitation import Chirp, Sine, Step, Table
+    from postcapture.config.faults import BiasStep, JointFault, Outage
+
+    for member in (Step, Sine, Chirp, Table, Outage, BiasStep, JointFault):
+        kinds = getattr(member.model_fields.get("kind"), "annotation", None)
+        if tag in getattr(kinds, "__args__", ()):
+            return member
+    return model
+
+
 def _found(err: dict) -> str:
     if err["type"] == "scenario":
         return err["ctx"]["found"]
+    if err["type"] == "union_tag_invalid":
+        return repr((err.get("ctx") or {}).get("tag"))  # the tag alone, not the whole table
     if err["type"] == "missing":
         return "nothing"
     if err["type"] == "extra_forbidden":
@@ -107,9 +180,16 @@ def _found(err: dict) -> str:
 
 
 def problems_from_validation(exc: ValidationError) -> list[Problem]:
-    """Turn a pydantic ``ValidationError`` into a list of :class:`Problem` (path, expected, found)."""
-    return [Problem((e.get("ctx") or {}).get("path") or _loc(tuple(e["loc"])), _expected(e), _found(e))
-            for e in exc.errors()]
+    """Turn a pydantic ``ValidationError`` into a list of :class:`Problem` (path, expected, found), every one."""
+    out = []
+    for e in exc.errors():
+        ctx = e.get("ctx") or {}
+        if e["type"] == "scenario_many":  # one check that found several problems
+            out += [Problem(p["path"], p["expected"], p["found"]) for p in ctx["problems"]]
+        else:
+            path = ctx.get("path") or _loc(tuple(e["loc"])) + (f".{ctx['field']}" if ctx.get("field") else "")
+            out.append(Problem(path, _expected(e), _found(e) + _hint(e)))
+    return out
 
 
 def scenario_from_dict(data: dict[str, Any], source: str | None = None) -> Scenario:

@@ -19,15 +19,24 @@ from postcapture.config.uncertainty import Uncertainty
 from postcapture.config.flexibility import refine_stiffness
 from postcapture.config.names import INTEGRATORS, MAX_SEGMENTS, PROFILES, VARIANTS
 from postcapture.config.types import (
+    Angle,
     AxisName,
+    Damping,
+    Duration,
     Frozen,
+    Mass,
     Mat3,
-    NonNegativeFloat,
+    Name,
     Pose,
-    PositiveFloat,
-    Vec3,
+    Position3,
+    Size,
+    Stiffness,
+    Text,
     check_inertia,
     problem,
+    problems,
+    quantity,
+    vector,
 )
 from postcapture.core.errors import Problem, ScenarioError
 from typing import Annotated
@@ -59,15 +68,15 @@ class Panel(Frozen):
     EI(s) they imply (see :mod:`postcapture.config.flexibility`).
     """
 
-    name: str = Field(min_length=1)
+    name: Name
     mount: Pose = Pose()
-    length: PositiveFloat
-    width: PositiveFloat
-    mass: PositiveFloat
+    length: Size
+    width: Size
+    mass: Mass
     segments: int = Field(ge=1, le=MAX_SEGMENTS)
-    bending_stiffness: tuple[PositiveFloat, ...]
-    torsion_stiffness: PositiveFloat
-    damping_beta: NonNegativeFloat = 0.0  # stiffness-proportional damping d = beta k (s)
+    bending_stiffness: tuple[Stiffness, ...]
+    torsion_stiffness: Stiffness
+    damping_beta: quantity("s", ge=0.0, le=10.0) = 0.0  # stiffness-proportional damping d = beta k (s)
 
     @model_validator(mode="after")
     def _count(self):
@@ -94,7 +103,7 @@ class Panel(Frozen):
 
 
 class _Body(Frozen):
-    mass: PositiveFloat
+    mass: Mass
     inertia: Inertia
     panels: tuple[Panel, ...] = ()
     # True when mass, centre of mass and inertia describe the whole spacecraft with its panels
@@ -113,7 +122,7 @@ class _Body(Frozen):
 class Chaser(_Body):
     """The chaser spacecraft; B is at its centre of mass (with panels if they are included)."""
 
-    accelerometer_position: Vec3 = (0.0, 0.0, 0.0)  # in B (m)
+    accelerometer_position: Position3 = (0.0, 0.0, 0.0)  # in B (m)
 
 
 class Target(_Body):
@@ -135,15 +144,15 @@ class ArmJoint(Frozen):
 
     axis: AxisName
     origin: Pose = Pose()
-    mass: PositiveFloat
-    com: Vec3 = (0.0, 0.0, 0.0)
+    mass: Mass
+    com: Position3 = (0.0, 0.0, 0.0)
     inertia: Inertia
-    stiffness: PositiveFloat
-    damping: NonNegativeFloat = 0.0
-    rest_angle: float = 0.0
-    rotor_inertia: PositiveFloat | None = None
-    servo_stiffness: PositiveFloat | None = None
-    servo_damping: NonNegativeFloat | None = None
+    stiffness: Stiffness
+    damping: Damping = 0.0
+    rest_angle: Angle = 0.0
+    rotor_inertia: quantity("kg m^2", gt=0.0, le=1.0e6) | None = None
+    servo_stiffness: Stiffness | None = None
+    servo_damping: Damping | None = None
 
 
 class Arm(Frozen):
@@ -162,8 +171,8 @@ class InitialState(Frozen):
     """
 
     q_BN: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
-    omega_BN_B: Vec3 = (0.0, 0.0, 0.0)  # rad/s
-    com_velocity_N: Vec3 = (0.0, 0.0, 0.0)  # m/s
+    omega_BN_B: vector("rad/s", 10.0) = (0.0, 0.0, 0.0)  # rad/s
+    com_velocity_N: vector("m/s", 1.0e4) = (0.0, 0.0, 0.0)  # m/s
     elastic: Literal["relaxed", "undeformed"] = "relaxed"
 
     @field_validator("q_BN")
@@ -184,12 +193,12 @@ class Simulation(Frozen):
     ``None`` runs the truth at ``integrator`` and ``step``, which are also the filters' model settings.
     """
 
-    duration: PositiveFloat = 100.0
+    duration: Duration = 100.0
     integrator: Literal[INTEGRATORS] = "sdirk3"
-    step: PositiveFloat = 0.1
-    sample_period: PositiveFloat = 0.1
-    tolerance: PositiveFloat | None = None
-    joint_tolerance: PositiveFloat | None = 1.0e-4
+    step: quantity("s", gt=0.0, le=1.0e3) = 0.1
+    sample_period: quantity("s", gt=0.0, le=1.0e3) = 0.1
+    tolerance: quantity("rad", gt=0.0, le=1.0) | None = None
+    joint_tolerance: quantity("rad", gt=0.0, le=1.0) | None = 1.0e-4
     truth_integrator: Literal[INTEGRATORS] = "sdirk4"
 
     @model_validator(mode="after")
@@ -216,8 +225,8 @@ def fault_problems(faults, duration: float) -> list[tuple[str, str, str]]:
 class Scenario(Frozen):
     """A complete post-capture scenario."""
 
-    name: str = Field(min_length=1)
-    description: str = ""
+    name: Name
+    description: Text = ""
     chaser: Chaser
     arm: Arm | None = None
     target: Target | None = None
@@ -230,31 +239,33 @@ class Scenario(Frozen):
 
     @model_validator(mode="after")
     def _consistency(self):
+        found = []  # (path, expected, found): every cross-section problem, reported together
         if self.target is not None and self.arm is None:
-            raise problem("an arm to hold the target", "a target without an arm")
+            found.append(("target", "an arm to hold the target", "a target without an arm"))
         n_arm = len(self.arm.joints) if self.arm is not None else 0
         for section in ("sensors", "tuning"):
             unknown = sorted(set(getattr(self.estimation, section)) - set(PROFILES))
             if unknown:
-                raise problem(f"profiles among {', '.join(PROFILES)}", unknown, f"estimation.{section}")
+                found.append((f"estimation.{section}", f"profiles among {', '.join(PROFILES)}", unknown))
         for i, fault in enumerate(self.faults):
             if isinstance(fault, JointFault) and fault.joint > n_arm:
-                raise problem(f"a joint among the arm's joints 1..{n_arm}", fault.joint, f"faults[{i}].joint")
-        problems = fault_problems(self.faults, self.simulation.duration)
-        if problems:
-            raise problem(problems[0][1], problems[0][2], problems[0][0])
+                found.append((f"faults[{i}].joint", f"a joint among the arm's joints 1..{n_arm}", fault.joint))
+        found += fault_problems(self.faults, self.simulation.duration)
         unc = self.uncertainty
         if unc.target_mass is not None and self.target is not None:
             lowest = self.target.mass + unc.target_mass.extremes()[0]
             panels = sum(p.mass for p in self.target.panels)
             if lowest <= panels:
-                raise problem(f"draws that keep the target heavier than its panels ({panels:g} kg)",
-                              f"draws down to {lowest:g} kg", "uncertainty.target_mass")
+                found.append(("uncertainty.target_mass", f"draws that keep the target heavier than its panels "
+                                                         f"({panels:g} kg)", f"draws down to {lowest:g} kg"))
         for i, ex in enumerate(self.excitation):
             try:
                 channel_index(ex.channel, n_arm)
             except ValueError:
-                raise problem(f"excitation[{i}].channel on an existing input (arm has {n_arm} joints)", ex.channel)
+                found.append((f"excitation[{i}].channel", f"a channel on an existing input (the arm has {n_arm} "
+                                                          "joints)", repr(ex.channel)))
+        if found:
+            raise problems(found)
         return self
 
     @property
