@@ -79,7 +79,11 @@ def _expected(err: dict) -> str:
         return f"a number <= {ctx.get('le')}"
     if kind == "less_than":
         return f"a number < {ctx.get('lt')}"
-    if kind in ("too_short", "too_long", "tuple_type"):
+    if kind == "too_short":
+        return f"at least {ctx.get('min_length')} entries"
+    if kind == "too_long":
+        return f"at most {ctx.get('max_length')} entries"
+    if kind == "tuple_type":
         return err["msg"].replace("Tuple should have", "").replace("Input should be", "").strip() or err["msg"]
     if kind == "literal_error":
         return "one of " + str(ctx.get("expected", ""))
@@ -106,11 +110,11 @@ def _did_you_mean(word, options) -> str:
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
 
-def _hint(err: dict) -> str:
+def _hint(err: dict, model) -> str:
     """A "did you mean" for a misspelt key, kind or choice."""
     kind, ctx = err["type"], err.get("ctx") or {}
     if kind == "extra_forbidden" and err["loc"]:
-        return _did_you_mean(err["loc"][-1], _known_keys(err["loc"][:-1]))
+        return _did_you_mean(err["loc"][-1], _known_keys(err["loc"][:-1], model))
     if kind == "union_tag_invalid":
         return _did_you_mean(ctx.get("tag"), [t.strip(" '") for t in str(ctx.get("expected_tags", "")).split(",")])
     if kind == "literal_error":
@@ -122,9 +126,8 @@ def _literal_options(ctx: dict) -> list[str]:
     return [t.strip(" '") for t in str(ctx.get("expected", "")).replace(" or ", ",").split(",") if t.strip(" '")]
 
 
-def _known_keys(loc: tuple) -> list[str]:
-    """The keys the schema allows at ``loc`` (a pydantic error location), for "did you mean"."""
-    model = Scenario
+def _known_keys(loc: tuple, model) -> list[str]:
+    """The keys the schema ``model`` allows at ``loc`` (a pydantic error location), for "did you mean"."""
     for part in loc:
         if isinstance(part, int) or model is None:
             continue
@@ -163,6 +166,8 @@ def _union_member(model, tag):
 def _found(err: dict) -> str:
     if err["type"] == "scenario":
         return err["ctx"]["found"]
+    if err["type"] in ("too_short", "too_long") and "actual_length" in (err.get("ctx") or {}):
+        return f"{err['ctx']['actual_length']}"
     if err["type"] == "union_tag_invalid":
         return repr((err.get("ctx") or {}).get("tag"))  # the tag alone, not the whole table
     if err["type"] == "missing":
@@ -179,8 +184,12 @@ def _found(err: dict) -> str:
     return text if len(text) < 80 else text[:77] + "..."
 
 
-def problems_from_validation(exc: ValidationError) -> list[Problem]:
-    """Turn a pydantic ``ValidationError`` into a list of :class:`Problem` (path, expected, found), every one."""
+def problems_from_validation(exc: ValidationError, model=None) -> list[Problem]:
+    """Turn a pydantic ``ValidationError`` into a list of :class:`Problem` (path, expected, found), every one.
+
+    ``model`` is the validated model (default :class:`Scenario`): its fields give the "did you mean" hints.
+    """
+    model = Scenario if model is None else model
     out = []
     for e in exc.errors():
         ctx = e.get("ctx") or {}
@@ -188,7 +197,7 @@ def problems_from_validation(exc: ValidationError) -> list[Problem]:
             out += [Problem(p["path"], p["expected"], p["found"]) for p in ctx["problems"]]
         else:
             path = ctx.get("path") or _loc(tuple(e["loc"])) + (f".{ctx['field']}" if ctx.get("field") else "")
-            out.append(Problem(path, _expected(e), _found(e) + _hint(e)))
+            out.append(Problem(path, _expected(e), _found(e) + _hint(e, model)))
     return out
 
 
