@@ -23,6 +23,10 @@ __all__ = [
     "cmd_modes",
     "cmd_bench",
     "cmd_panel_calibrate",
+    "cmd_scenario_show",
+    "cmd_scenario_new",
+    "cmd_scenario_validate",
+    "cmd_scenario_reference",
 ]
 
 
@@ -362,7 +366,65 @@ def cmd_panel_calibrate(args) -> int:
 
 
 def cmd_scenario_show(args) -> int:
-    raise NotImplementedError
+    """``postcapture scenario show NAME|FILE``: a built-in scenario's text; a file's validated content as TOML."""
+    from postcapture.config import builtin_scenarios, load_scenario
+    from postcapture.config.tooling import builtin_text
+
+    if args.name in builtin_scenarios():
+        print(builtin_text(args.name), end="")
+        return 0
+    import tomli_w
+
+    from postcapture.io import plain
+
+    scenario = load_scenario(args.name)
+    print(tomli_w.dumps(plain(scenario.model_dump(exclude_none=True))), end="")
+    return 0
 
 
-cmd_scenario_new = cmd_scenario_validate = cmd_scenario_reference = cmd_scenario_show
+def cmd_scenario_new(args) -> int:
+    """``postcapture scenario new --like NAME -o FILE``: a copy of a built-in scenario to edit."""
+    from pathlib import Path
+
+    from postcapture.config.tooling import new_scenario_text
+    from postcapture.io import check_output_file, write_atomic
+
+    check = checks.Pass("scenario new")
+    check.output_file("--output", args.output)
+    if Path(args.output).exists():
+        check.add("--output", "a new file (scenario new never overwrites one)", f"{args.output} (exists)")
+    check.finish()
+    text = new_scenario_text(args.like, Path(args.output).stem)
+    check_output_file(args.output)
+    write_atomic(args.output, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    _echo(f"written {args.output}: a copy of '{args.like}' named '{Path(args.output).stem}'; edit it, then check it "
+          f"with `postcapture scenario validate {args.output}`")
+    return 0
+
+
+def cmd_scenario_validate(args) -> int:
+    """``postcapture scenario validate FILE``: every problem with its path; the exit status is their number."""
+    from postcapture.config.tooling import check_scenario_file
+
+    scenario, problems = check_scenario_file(args.file)
+    if args.json:
+        _print_json({"file": args.file, "valid": scenario is not None,
+                     "problems": [{"path": p.path, "expected": p.expected, "found": p.found} for p in problems]})
+    elif scenario is not None:
+        panels = len(scenario.panels())
+        _echo(f"{args.file}: valid scenario '{scenario.name}': {scenario.n_arm} arm joints, {panels} panels, "
+              f"{'a target of ' + format(scenario.target.mass, 'g') + ' kg' if scenario.target else 'no target'}, "
+              f"{scenario.simulation.duration:g} s")
+    else:
+        _echo(f"{args.file}: {len(problems)} problem{'s' if len(problems) != 1 else ''}", file=sys.stderr)
+        for p in problems:
+            _echo(f"  - {p}", file=sys.stderr)
+    return min(len(problems), 100)
+
+
+def cmd_scenario_reference(args) -> int:
+    """``postcapture scenario reference``: the field reference page (Markdown)."""
+    from postcapture.config.reference import reference_markdown
+
+    print(reference_markdown(), end="")
+    return 0

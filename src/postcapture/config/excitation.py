@@ -48,7 +48,30 @@ def channel_index(channel: str, n_arm: int) -> int:
 
 class _Window(Frozen):
     """A profile on ``channel``, active on ``[start, stop)`` (``stop`` None: never stops), zero outside;
-    the left limit at a switch (``(start, stop]``) is what an integrator sees at the end of a step."""
+    the left limit at a switch (``(start, stop]``) is what an integrator sees at the end of a step.
+
+    Attributes
+    ----------
+    channel : str
+        ``force_x|y|z`` (N, on the chaser at its centre of mass, B components), ``torque_x|y|z`` (N m, B
+        components) or ``joint_<k>`` (N m, the k-th arm joint's motor).
+    start, stop : float
+        The window (s); without ``stop`` the profile runs to the end.
+    amplitude : float
+        N or N m, by channel.
+    rise_time : float
+        A step's linear ramp up after ``start`` and down before ``stop`` (s).
+    frequency : float
+        A sine's frequency (Hz).
+    phase : float
+        Phase at ``start`` (rad).
+    offset : float
+        Added to a sine (N or N m).
+    f0, f1 : float
+        A chirp's frequencies at ``start`` and ``stop`` (Hz).
+    t, value : list of float
+        A table's times (s, increasing) and values (N or N m).
+    """
 
     channel: str = Field(max_length=64)
     start: Instant = 0.0

@@ -27,6 +27,20 @@ is a sensor with a bias."""
 
 
 class _Window(Frozen):
+    """A fault on a window of time.
+
+    Attributes
+    ----------
+    start, stop : float
+        The window ``[start, stop)`` (s); without ``stop`` the fault lasts to the end of the run.
+    time : float
+        When a bias step happens (s).
+    step : list of 3 float
+        A bias step, body axes (rad/s for the gyro, m/s^2 for the accelerometer).
+    joint : int
+        The arm joint (1-based) whose sensor fails.
+    """
+
     start: Instant
     stop: Instant | None = None
 
@@ -44,7 +58,15 @@ class Outage(_Window):
 
 
 class BiasStep(Frozen):
-    """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``."""
+    """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``.
+
+    Attributes
+    ----------
+    time : float
+        When the bias jumps (s).
+    step : list of 3 float
+        The jump, body axes (rad/s for the gyro, m/s^2 for the accelerometer).
+    """
 
     kind: Literal["gyro_bias_step", "accelerometer_bias_step"]
     time: Instant

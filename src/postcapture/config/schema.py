@@ -57,7 +57,9 @@ __all__ = [
 ]
 
 ARCSEC = 4.84813681109536e-06  # rad
-Inertia = Annotated[Mat3, check_inertia]
+Inertia = Annotated[Mat3, check_inertia, Field(json_schema_extra={
+    "unit": "kg m^2", "bounds": "symmetric, positive definite, principal moments satisfying I1 + I2 >= I3, "
+                                "entries of magnitude at most 1e10"})]
 
 
 class Panel(Frozen):
@@ -66,6 +68,25 @@ class Panel(Frozen):
     ``bending_stiffness`` lists the N hinge stiffnesses from root to tip (N m/rad); for another
     number of segments use :meth:`with_segments`, which derives them from the piecewise-constant
     EI(s) they imply (see :mod:`postcapture.config.flexibility`).
+
+    Attributes
+    ----------
+    name : str
+        Unique among the spacecraft's panels; it names the panel's outputs (``tip_<name>``).
+    mount : Pose
+        The panel root frame P in the host body's frame (B for the chaser, T for the target).
+    length, width : float
+        Along x_P from root to tip, and across (m).
+    mass : float
+        The whole panel, spread evenly over its segments (kg).
+    segments : int
+        Rigid segments on bending hinges; the first hinge sits at the root.
+    bending_stiffness : list of float
+        One hinge stiffness per segment, root to tip (N m/rad); ``postcapture panel calibrate`` fits them.
+    torsion_stiffness : float
+        The root torsion hinge about x_P (N m/rad).
+    damping_beta : float
+        Stiffness-proportional damping, d = beta k on every hinge (s).
     """
 
     name: Name
@@ -103,6 +124,21 @@ class Panel(Frozen):
 
 
 class _Body(Frozen):
+    """A spacecraft body.
+
+    Attributes
+    ----------
+    mass : float
+        Its mass (kg); with ``properties_include_panels``, the whole spacecraft's.
+    inertia : 3x3 list of float
+        About its centre of mass, in its body frame (kg m^2).
+    panels : list of Panel
+        Its flexible panels (``[[chaser.panels]]``, ``[[target.panels]]``).
+    properties_include_panels : bool
+        True when mass and inertia describe the whole spacecraft with its panels undeformed: the model
+        subtracts the panels to get the rigid hub.
+    """
+
     mass: Mass
     inertia: Inertia
     panels: tuple[Panel, ...] = ()
@@ -120,13 +156,25 @@ class _Body(Frozen):
 
 
 class Chaser(_Body):
-    """The chaser spacecraft; B is at its centre of mass (with panels if they are included)."""
+    """The chaser spacecraft; B is at its centre of mass (with panels if they are included).
+
+    Attributes
+    ----------
+    accelerometer_position : list of 3 float
+        Where the accelerometer sits, in B (m).
+    """
 
     accelerometer_position: Position3 = (0.0, 0.0, 0.0)  # in B (m)
 
 
 class Target(_Body):
-    """The captured target. ``grasp_to_com`` is the pose of T (origin at the CoM) in the grasp frame G."""
+    """The captured target. ``grasp_to_com`` is the pose of T (origin at the CoM) in the grasp frame G.
+
+    Attributes
+    ----------
+    grasp_to_com : Pose
+        T (origin at the target's centre of mass) in the arm's grasp frame G: ``xyz`` (m), ``rpy`` (rad).
+    """
 
     grasp_to_com: Pose = Pose()
 
@@ -140,6 +188,27 @@ class ArmJoint(Frozen):
     model: a motor rotor with that (reflected) inertia, held at ``rest_angle`` by a servo of stiffness
     ``servo_stiffness`` and damping ``servo_damping``, drives the link through the joint spring, and the
     motor torque input acts on the rotor.
+
+    Attributes
+    ----------
+    axis : {"x", "y", "z"}
+        The joint's axis in its own frame.
+    origin : Pose
+        The joint frame in the previous link's frame (the arm base for joint 1).
+    mass : float
+        The link's mass (kg).
+    com : list of 3 float
+        The link's centre of mass in the joint frame (m).
+    inertia : 3x3 list of float
+        The link's inertia about its centre of mass, joint-frame axes (kg m^2).
+    stiffness : float
+        The joint spring (N m/rad).
+    damping : float
+        The joint damper (N m s/rad).
+    rest_angle : float
+        The angle the spring pulls towards (rad).
+    rotor_inertia, servo_stiffness, servo_damping : float, optional
+        Spong's motor rotor (kg m^2, reflected) and its servo (N m/rad, N m s/rad).
     """
 
     axis: AxisName
@@ -156,7 +225,17 @@ class ArmJoint(Frozen):
 
 
 class Arm(Frozen):
-    """The manipulator: base pose in B, joints from base to tool, tool (grasp) frame in the last link."""
+    """The manipulator: base pose in B, joints from base to tool, tool (grasp) frame in the last link.
+
+    Attributes
+    ----------
+    base : Pose
+        The arm base in B.
+    joints : list of ArmJoint
+        ``[[arm.joints]]``, from base to tool.
+    tool : Pose
+        The grasp frame G in the last link's frame.
+    """
 
     base: Pose = Pose()
     joints: tuple[ArmJoint, ...] = Field(min_length=1)
@@ -168,6 +247,17 @@ class InitialState(Frozen):
 
     ``elastic = "relaxed"`` starts the joints at the deflection where the elastic coordinates have no
     acceleration at the initial rates (no start-up transient); ``"undeformed"`` at their rest angles.
+
+    Attributes
+    ----------
+    q_BN : list of 4 float
+        Attitude of B relative to N, scalar first (w, x, y, z), unit norm.
+    omega_BN_B : list of 3 float
+        Angular velocity of the stack, B components (rad/s).
+    com_velocity_N : list of 3 float
+        Velocity of the stack's centre of mass, N components (m/s).
+    elastic : {"relaxed", "undeformed"}
+        Where the elastic joints start.
     """
 
     q_BN: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
@@ -191,6 +281,21 @@ class Simulation(Frozen):
     and on the joint angles over the run (1 arcsec is ``4.85e-6``): when ``tolerance`` is set, the truth's
     step follows from them (:func:`postcapture.dynamics.accuracy.choose_step`, ``truth_integrator``);
     ``None`` runs the truth at ``integrator`` and ``step``, which are also the filters' model settings.
+
+    Attributes
+    ----------
+    duration : float
+        Simulated time (s).
+    integrator : str
+        The plant's integrator (the truth's without ``tolerance``, and the filters' model).
+    step : float
+        Its step (s); ``sample_period`` must be a whole multiple of it.
+    sample_period : float
+        Output and sensor sample period (s).
+    tolerance, joint_tolerance : float, optional
+        Accuracy of the truth on the attitude and the joint angles over the run (rad); see above.
+    truth_integrator : str
+        The truth's integrator when ``tolerance`` is set.
     """
 
     duration: Duration = 100.0
@@ -223,7 +328,33 @@ def fault_problems(faults, duration: float) -> list[tuple[str, str, str]]:
 
 
 class Scenario(Frozen):
-    """A complete post-capture scenario."""
+    """A complete post-capture scenario.
+
+    Attributes
+    ----------
+    name : str
+        Names the scenario in titles and file names.
+    description : str
+        Free text.
+    chaser : Chaser
+        ``[chaser]``.
+    arm : Arm, optional
+        ``[arm]``; required with a target.
+    target : Target, optional
+        ``[target]``.
+    excitation : list
+        ``[[excitation]]``: known inputs (thrusters, joint torques) by ``kind``.
+    initial : InitialState
+        ``[initial]``.
+    simulation : Simulation
+        ``[simulation]``.
+    estimation : Estimation
+        ``[estimation]``: the filters' settings, sensor overrides and tunings per profile.
+    uncertainty : Uncertainty
+        ``[uncertainty]``: what the filters do not know (priors).
+    faults : list
+        ``[[faults]]``: scheduled sensor faults by ``kind``.
+    """
 
     name: Name
     description: Text = ""

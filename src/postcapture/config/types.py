@@ -210,6 +210,13 @@ class Pose(Frozen):
 
     ``xyz`` is the child origin in parent components (m); ``rpy`` are roll-pitch-yaw angles (rad) with
     ``R_parent_child = Rz(yaw) Ry(pitch) Rx(roll)``.
+
+    Attributes
+    ----------
+    xyz : list of 3 float
+        The child frame's origin in the parent frame (m).
+    rpy : list of 3 float
+        Roll, pitch, yaw (rad): ``R_parent_child = Rz(yaw) Ry(pitch) Rx(roll)``.
     """
 
     xyz: Position3 = (0.0, 0.0, 0.0)

@@ -42,6 +42,17 @@ class Prior(Frozen):
 
     For an offset, a normal is centred on 0 and ``low``/``high`` are offsets; for a factor, a normal is
     ``1 + sigma n`` and ``low``/``high`` are factors.
+
+    Attributes
+    ----------
+    kind : {"normal", "uniform", "loguniform"}
+        The distribution.
+    sigma : float
+        A normal prior's standard deviation, in the prior's unit.
+    truncate : float
+        A normal prior is cut at this many sigmas (draws beyond are drawn again).
+    low, high : float
+        A uniform or log-uniform prior's range, in the prior's unit.
     """
 
     kind: Literal["normal", "uniform", "loguniform"] = "normal"
@@ -119,7 +130,29 @@ def prior_field(unit: str, role: str, limit: float):
 
 
 class Uncertainty(Frozen):
-    """Declared uncertainty of the nominal model (see the module docstring); None means exactly known."""
+    """Declared uncertainty of the nominal model (see the module docstring); None means exactly known.
+
+    Attributes
+    ----------
+    target_mass : Prior
+        Offset on the target's mass (kg).
+    target_com : Prior
+        Offset on each axis of the target's centre of mass, in T (m).
+    target_inertia_moments : Prior
+        Factor on each principal moment of the target.
+    target_inertia_axes : Prior
+        Small rotation of the target's principal axes about each axis of T (rad).
+    panel_bending, panel_torsion, panel_damping : Prior
+        Factors on each panel's hinge springs and dampers (each panel drawn on its own).
+    arm_stiffness, arm_damping : Prior
+        One factor on every arm joint's spring or damper.
+    gyro_bias : Prior
+        The gyro's turn-on bias per axis (rad/s).
+    accelerometer_bias : Prior
+        The accelerometer's bias per axis (m/s^2).
+    truth_panel_segments : int
+        The truth's panels are cut into this many segments (the filters keep the scenario's).
+    """
 
     target_mass: Prior | None = prior_field("kg", "offset", MAX_MASS)
     target_com: Prior | None = prior_field("m", "offset", 10.0)
