@@ -15,7 +15,7 @@ from pydantic import Field, model_validator
 
 from postcapture.config.types import MAX_MASS, Frequency, Frozen, Mass, Seed, problem, quantity, vector
 
-Probability = Annotated[float, Field(ge=0.0, lt=1.0)]
+Probability = quantity("1", ge=0.0, lt=1.0)
 
 __all__ = ["StarTrackerSpec", "GyroSpec", "AccelerometerSpec", "JointSensorSpec", "SensorProfileSpec", "FilterTuning",
            "Estimation"]
@@ -114,7 +114,7 @@ class FilterTuning(Frozen):
     mass_process_variance: tuple[quantity("1", ge=0.0, le=1.0e6), quantity("1", ge=0.0, le=1.0e6)] | None = None
     mass_bounds: tuple[Mass, Mass] | None = None
     sigmoid_c: quantity("1/kg", gt=0.0, le=1.0e3) | None = None
-    gate_probability: float | None = Field(default=None, gt=0.0, lt=1.0)
+    gate_probability: quantity("1", gt=0.0, lt=1.0) | None = None
     model_process_variance: quantity("(m/s)^2 or (rad/s)^2", ge=0.0, le=1.0e6) | None = None
     estimate: tuple[ParameterGroup, ...] | None = None
     consider: tuple[ParameterGroup, ...] | None = None
