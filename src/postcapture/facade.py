@@ -103,8 +103,10 @@ class RunResult:
     """
 
     def __init__(self, result):
+        from postcapture.studies.results import run_summary
+
         self.result = result
-        self.summary = result.summary()
+        self.summary = run_summary(result)
 
     @property
     def cases(self) -> tuple[str, ...]:
@@ -150,11 +152,12 @@ class RunResult:
 
         return main_job_figures(self.to_xarray())
 
-    def write(self, out_dir, *, figures: bool = True) -> dict:
-        """Write ``results.nc``, ``summary.json``, ``table.txt`` and the figures; returns the paths."""
+    def write(self, out_dir, *, figures: bool = True, fmt: str = "png", dpi: int | None = None) -> dict:
+        """Write ``results.nc``, ``summary.json``, ``table.txt``, the figures (``fmt``: png, pdf or svg) and
+        ``report.md``; returns the paths."""
         from postcapture.studies.results import write_results
 
-        return write_results(self.result, out_dir, figures=figures)
+        return write_results(self.result, out_dir, figures=figures, fmt=fmt, dpi=dpi)
 
     def __repr__(self) -> str:
         s = self.summary

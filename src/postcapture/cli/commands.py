@@ -69,6 +69,7 @@ def cmd_simulate(args) -> int:
     checks.simulate(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.dynamics.simulate import drift_metrics, simulate
+    from postcapture.io.provenance import provenance
 
     scenario = load_scenario(args.scenario)
     out = args.out or checks.default_simulate_out(scenario, args.variant)
@@ -86,7 +87,7 @@ def cmd_simulate(args) -> int:
             progress=shown.fraction_callback("truth simulation"),
         )
         shown.phase("writing the NetCDF file")
-        traj.to_netcdf(out)
+        traj.to_netcdf(out, provenance=provenance(scenario))
     wall = traj.attrs["wall_s"]
     duration = float(traj.t[-1] - traj.t[0])
     summary = {
@@ -134,7 +135,7 @@ def cmd_run(args) -> int:
     checks.run(args)  # everything given, checked before any work
     from postcapture.studies.cases import DEFAULT_CASES
     from postcapture.studies.main_job import run_main_job
-    from postcapture.studies.results import write_results
+    from postcapture.studies.results import run_summary, write_results
     from postcapture.config import load_scenario
     from postcapture.report.table import results_table
 
@@ -175,8 +176,8 @@ def cmd_run(args) -> int:
             progress=progress,
         )
         shown.phase("writing results" + ("" if args.no_plots else " and figures"))
-        paths = write_results(result, args.out, figures=not args.no_plots)
-    summary = result.summary()
+        paths = write_results(result, args.out, figures=not args.no_plots, fmt=args.format, dpi=args.dpi)
+    summary = run_summary(result)
     if args.json:
         _print_json(summary)
     else:
@@ -191,6 +192,7 @@ def cmd_campaign(args) -> int:
     from postcapture.studies.montecarlo import run_campaign
     from postcapture.studies.results import write_campaign
     from postcapture.config import load_scenario
+    from postcapture.io.provenance import provenance
     from postcapture.report.campaign import campaign_table
 
     scenario = load_scenario(args.scenario)
@@ -206,8 +208,8 @@ def cmd_campaign(args) -> int:
                               scheduler=args.scheduler, workers=args.workers, out=args.out, fresh=args.fresh,
                               crlb=not args.no_crlb, progress=shown.task)
         shown.phase("writing results" + ("" if args.no_plots else " and figures"))
-        paths = write_campaign(result, args.out, figures=not args.no_plots)
-    summary = result.summary()
+        paths = write_campaign(result, args.out, figures=not args.no_plots, fmt=args.format, dpi=args.dpi)
+    summary = {**result.summary(), "provenance": provenance(result.scenario)}
     if args.json:
         _print_json(summary)
     else:

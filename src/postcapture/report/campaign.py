@@ -77,6 +77,9 @@ def _title(summary: dict, what: str) -> str:
 
 def campaign_figures(ds, summary: dict) -> dict:
     """``{stem: Figure}`` of a campaign (see the module docstring)."""
+    from postcapture.io.netcdf import labelled
+
+    ds = labelled(ds)
     cases = [str(c) for c in ds["case"].values]
     n_c = len(cases)
     runs = ds["run"].values

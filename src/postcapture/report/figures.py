@@ -53,6 +53,9 @@ def main_job_figures(ds) -> dict[str, Figure]:
     -------
     dict of str to matplotlib.figure.Figure
     """
+    from postcapture.io.netcdf import labelled
+
+    ds = labelled(ds)  # a file's labels (case names) back on their dimensions
     figures = {
         "attitude_estimates": attitude_estimates_figure(ds),
         "mass_estimates": mass_estimates_figure(ds),

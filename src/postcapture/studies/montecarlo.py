@@ -38,7 +38,8 @@ from postcapture.core.errors import Problem, ScenarioError
 from postcapture.io import write_atomic
 from postcapture.studies.checkpoints import save_run, saved_runs, settings_digest
 from postcapture.studies.scheduler import MAX_WORKERS, check_scheduler, dask_client
-from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, target_properties, truth_vector_names
+from postcapture.studies.target_estimates import target_errors as _target_errors
+from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, truth_vector_names
 from postcapture.estimation.history import StepFlag
 
 __all__ = ["CampaignResult", "run_campaign", "run_one"]
@@ -91,41 +92,6 @@ def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
             "diverged_at": float(h.t[diverged[0]]) if diverged.size else float("nan"),
             "message": h.message,
         }
-    return out
-
-
-def _target_errors(plan: RunPlan, res, truth_vec, names) -> dict:
-    """Final errors of the whole target's centre of mass (m, 3, G frame) and inertia (kg m^2, 6: xx, yy, zz,
-    xy, xz, yz), where estimated, with the filter's 1-sigma of each (its final covariance of the ten
-    inertial parameters carried through the same map, to first order)."""
-    nan = {"com_error": np.full(3, np.nan), "inertia_error": np.full(6, np.nan),
-           "com_sigma": np.full(3, np.nan), "inertia_sigma": np.full(6, np.nan)}
-    p = getattr(res, "params", None)
-    if p is None or not np.all(np.isfinite(p[:10, -1])):
-        return nan
-
-    def whole(pi):
-        est = target_properties(plan.scenario, pi)
-        I = est.inertia
-        return np.concatenate([est.com, [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]])
-
-    pi = p[:10, -1].copy()
-    y = whole(pi)
-    t = dict(zip(names, truth_vec))
-    true_I = np.array([t[f"target_I_{a}"] for a in ("xx", "yy", "zz", "xy", "xz", "yz")])
-    true_c = np.array([t[f"target_com_{a}"] for a in "xyz"])
-    out = {"com_error": y[:3] - true_c, "inertia_error": y[3:] - true_I,
-           "com_sigma": np.full(3, np.nan), "inertia_sigma": np.full(6, np.nan)}
-    C = getattr(res, "params_cov", None)
-    if C is not None and np.all(np.isfinite(C[:10, :10])):
-        J = np.empty((9, 10))
-        for j in range(10):  # central differences; the map is smooth and cheap
-            h = 1e-6 * max(abs(pi[j]), 1.0)
-            e = np.zeros(10)
-            e[j] = h
-            J[:, j] = (whole(pi + e) - whole(pi - e)) / (2 * h)
-        s = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, C[:10, :10], J), 0.0))
-        out["com_sigma"], out["inertia_sigma"] = s[:3], s[3:]
     return out
 
 
