@@ -257,7 +257,8 @@ def summarize(result: CampaignResult) -> dict:
     n = len(result.runs)
     out = {"cases": {}, "runs": n, "dispersed": result.settings.get("dispersed", False),
            "profile": result.settings.get("profile"), "scenario": result.settings.get("scenario"),
-           "seed": result.settings.get("seed"), "wall_s": result.wall_s, "resumed_runs": result.resumed}
+           "seed": result.settings.get("seed"), "truth": result.settings.get("truth"), "wall_s": result.wall_s,
+           "resumed_runs": result.resumed}
     t_grid = np.asarray(result.t, dtype=float)
     for case in result.cases:
         rows = [run["cases"][case] for run in result.runs]
