@@ -61,6 +61,17 @@ def _note(text: str) -> None:
     _echo(f"note: {text}", file=sys.stderr)
 
 
+def _plant_core(shown) -> None:
+    """Load the compiled plant core before the work, saying so: on first use it is compiled (5-10 s)."""
+    from postcapture.dynamics.compiled import compile_seconds, load_library
+
+    shown.phase("plant core (compiled with the system's C compiler on first use: 5-10 s)")
+    load_library()
+    if compile_seconds() > 0:
+        _note(f"the plant core was compiled in {compile_seconds():.1f} s (first use of this version); it is "
+              "cached from now on")
+
+
 def _written(folder, names) -> str:
     return f"written to {folder}/: {', '.join(sorted(names))}"
 
@@ -74,6 +85,7 @@ def cmd_simulate(args) -> int:
     scenario = load_scenario(args.scenario)
     out = args.out or checks.default_simulate_out(scenario, args.variant)
     with _display(args, "simulate") as shown:
+        _plant_core(shown)
         shown.phase(f"{scenario.name}, {args.variant} model")
         traj = simulate(
             scenario,
@@ -151,6 +163,8 @@ def cmd_run(args) -> int:
             _note(note)
     cases = cases or DEFAULT_CASES
     with _display(args, "run") as shown:
+        _plant_core(shown)
+        shown.expect(["truth simulation", *([] if args.no_crlb else ["crlb"]), *cases])
         shown.phase("truth simulation and sensors")
         jobs = len(cases) + (0 if args.no_crlb else 1)  # the Cramer-Rao bound is one more job
         processes = 1 if args.workers == 1 or jobs == 1 else min(args.workers, jobs)
@@ -201,6 +215,7 @@ def cmd_campaign(args) -> int:
                                      args.truth_scenario)])
     truth = checks.truth(args, scenario)
     with _display(args, "campaign") as shown:
+        _plant_core(shown)
         shown.phase(f"{args.runs} runs")
 
         result = run_campaign(scenario, runs=args.runs, dispersed=args.dispersed, truth=truth, profile=args.profile,

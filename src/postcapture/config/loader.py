@@ -50,43 +50,32 @@ def _loc(loc: tuple) -> str:
     return out or "(scenario)"
 
 
+_EXPECTED = {  # pydantic's error type -> what the user should write (``{...}`` from the error's context)
+    "missing": "a value (required key)",
+    "extra_forbidden": "a known key (this one is not part of the schema)",
+    "finite_number": "a finite number",
+    "float_parsing": "a number", "float_type": "a number",
+    "int_parsing": "an integer", "int_type": "an integer", "int_from_float": "an integer",
+    "bool_parsing": "true or false", "bool_type": "true or false",
+    "string_type": "a string",
+    "dict_type": "a table", "model_type": "a table", "model_attributes_type": "a table",
+    "greater_than": "a number > {gt}", "greater_than_equal": "a number >= {ge}",
+    "less_than_equal": "a number <= {le}", "less_than": "a number < {lt}",
+    "too_short": "at least {min_length} entries", "too_long": "at most {max_length} entries",
+    "literal_error": "one of {expected}",
+    "string_too_long": "at most {max_length} characters",
+}
+
+
 def _expected(err: dict) -> str:
     kind = err["type"]
     ctx = err.get("ctx") or {}
     if kind == "scenario":
         return ctx["expected"]
-    if kind == "missing":
-        return "a value (required key)"
-    if kind == "extra_forbidden":
-        return "a known key (this one is not part of the schema)"
-    if kind in ("finite_number",):
-        return "a finite number"
-    if kind in ("float_parsing", "float_type"):
-        return "a number"
-    if kind in ("int_parsing", "int_type", "int_from_float"):
-        return "an integer"
-    if kind in ("bool_parsing", "bool_type"):
-        return "true or false"
-    if kind in ("string_type",):
-        return "a string"
-    if kind in ("dict_type", "model_type", "model_attributes_type"):
-        return "a table"
-    if kind == "greater_than":
-        return f"a number > {ctx.get('gt')}"
-    if kind == "greater_than_equal":
-        return f"a number >= {ctx.get('ge')}"
-    if kind == "less_than_equal":
-        return f"a number <= {ctx.get('le')}"
-    if kind == "less_than":
-        return f"a number < {ctx.get('lt')}"
-    if kind == "too_short":
-        return f"at least {ctx.get('min_length')} entries"
-    if kind == "too_long":
-        return f"at most {ctx.get('max_length')} entries"
+    if kind in _EXPECTED:
+        return _EXPECTED[kind].format(**{k: str(v) for k, v in ctx.items()})
     if kind == "tuple_type":
         return err["msg"].replace("Tuple should have", "").replace("Input should be", "").strip() or err["msg"]
-    if kind == "literal_error":
-        return "one of " + str(ctx.get("expected", ""))
     if kind == "union_tag_invalid":
         tags = [t.strip(" '") for t in str(ctx.get("expected_tags", "")).split(",")]
         return "kind one of " + ", ".join(tags)
@@ -94,8 +83,6 @@ def _expected(err: dict) -> str:
         if ctx.get("pattern") == NAME_PATTERN:
             return "a name: an ASCII letter, then up to 63 ASCII letters, digits, '_', '.' or '-'"
         return "text without control characters (tab and newline allowed)"
-    if kind == "string_too_long":
-        return f"at most {ctx.get('max_length')} characters"
     if kind == "union_tag_not_found":
         kinds = FAULT_KINDS if err["loc"][:1] == ("faults",) else ("step", "sine", "chirp", "table")
         return f"a 'kind' key ({', '.join(kinds)})"

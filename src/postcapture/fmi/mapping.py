@@ -106,16 +106,22 @@ def _pattern_problems(jac: JacobianOutputs) -> list[str]:
     return problems
 
 
+def _duplicates(names) -> list[str]:
+    """The names that occur more than once, in order of their second occurrence."""
+    seen, dup = set(), []
+    for n in names:
+        if n in seen and n not in dup:
+            dup.append(n)
+        seen.add(n)
+    return dup
+
+
 def _overlap_problems(state, corr, reset, attitude, rate, accel, joint, mass) -> list[str]:
     """A variable may play one role only (the attitude and rates are state entries by design)."""
     problems = []
     for key, names in (("[state] variables", state), ("[correction] inputs", corr), ("[state] attitude", attitude),
                        ("[state] rate", rate), ("[measurement] accel", accel), ("[measurement] joint_accel", joint)):
-        seen, dup = set(), []
-        for n in names or ():
-            if n in seen and n not in dup:
-                dup.append(n)
-            seen.add(n)
+        dup = _duplicates(names or ())
         if dup:
             problems.append(f"{key}: {', '.join(repr(d) for d in dup)} listed more than once")
     shared = sorted(set(attitude or ()) & set(rate or ()))
@@ -400,6 +406,37 @@ def _close(name: str, pool: list[str]) -> str:
     return f"; close matches: {', '.join(close)}" if close else ""
 
 
+def _entry_problem(entry: str, name: str, by_name: dict, pool: list[str]) -> str | None:
+    """What is wrong with one mapped name against the FMU's variables (None when it fits)."""
+    if name not in by_name:
+        return f"{entry}: no variable {name!r} in the FMU{_close(name, pool)}"
+    v = by_name[name]
+    if v is None:
+        return None
+    causalities, variabilities, what = _ROLES[entry]
+    if v.causality not in causalities or (variabilities is not None and v.variability not in variabilities):
+        return (f"{entry}: {name!r} has causality {v.causality!r} and variability {v.variability!r}; "
+                f"expected {what}")
+    if v.type not in _REAL_TYPES:
+        return f"{entry}: {name!r} is of type {v.type}; expected a real (Real / Float64) variable"
+    return None
+
+
+def _jacobian_problems(jac: JacobianOutputs, n: int, m: int, by_name: dict, pool: list[str]) -> list[str]:
+    problems = []
+    for key, group in jac.expand(n, m).items():
+        missing = [g for g in group if g not in by_name]
+        if missing:
+            problems.append(f"jacobians.{key}: {len(missing)} of {len(group)} variables missing, "
+                            f"first {missing[0]!r}{_close(missing[0], pool)}")
+        elif by_name[group[0]] is not None:
+            unreadable = [g for g in group if by_name[g].causality not in ("output", "local")]
+            if unreadable:
+                problems.append(f"jacobians.{key}: {len(unreadable)} of {len(group)} variables are not outputs, "
+                                f"first {unreadable[0]!r}")
+    return problems
+
+
 def check_mapping(mapping: Mapping, variables, fmu: str, tangent_dim: int | None = None) -> list[str]:
     """Problems of ``mapping`` against an FMU's variables (empty when it fits).
 
@@ -424,33 +461,9 @@ def check_mapping(mapping: Mapping, variables, fmu: str, tangent_dim: int | None
     by_name = {v: None for v in variables} if all(isinstance(v, str) for v in variables) else \
         {v.name: v for v in variables}
     pool = sorted(by_name)
-    problems = []
-    for entry, name in mapping.entries():
-        if name not in by_name:
-            problems.append(f"{entry}: no variable {name!r} in the FMU{_close(name, pool)}")
-            continue
-        v = by_name[name]
-        if v is None:
-            continue
-        causalities, variabilities, what = _ROLES[entry]
-        if v.causality not in causalities or (variabilities is not None and v.variability not in variabilities):
-            problems.append(f"{entry}: {name!r} has causality {v.causality!r} and variability {v.variability!r}; "
-                            f"expected {what}")
-        elif v.type not in _REAL_TYPES:
-            problems.append(f"{entry}: {name!r} is of type {v.type}; expected a real (Real / Float64) variable")
+    problems = [p for entry, name in mapping.entries() if (p := _entry_problem(entry, name, by_name, pool))]
     if mapping.jacobians is not None and tangent_dim is not None:
-        for key, group in mapping.jacobians.expand(tangent_dim, mapping.n_meas).items():
-            missing = [g for g in group if g not in by_name]
-            if missing:
-                problems.append(
-                    f"jacobians.{key}: {len(missing)} of {len(group)} variables missing, "
-                    f"first {missing[0]!r}{_close(missing[0], pool)}"
-                )
-            elif by_name[group[0]] is not None:
-                unreadable = [g for g in group if by_name[g].causality not in ("output", "local")]
-                if unreadable:
-                    problems.append(f"jacobians.{key}: {len(unreadable)} of {len(group)} variables are not outputs, "
-                                    f"first {unreadable[0]!r}")
+        problems += _jacobian_problems(mapping.jacobians, tangent_dim, mapping.n_meas, by_name, pool)
     return problems
 
 
