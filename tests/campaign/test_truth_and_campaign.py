@@ -239,7 +239,7 @@ def test_campaign_summary_and_files(envisat, tmp_path):
     import xarray as xr
 
     ds = xr.open_dataset(paths["results"])
-    assert ds["mass_error"].shape == (3, 2, 51) and ds["truth"].shape[0] == 3
+    assert ds["mass_error"].shape == (3, 2, 51) and ds["truth_target_mass"].shape == (3,)
     assert json.loads(ds.attrs["summary_json"])["runs"] == 3
     ds.close()
     from postcapture.report.campaign import campaign_figures

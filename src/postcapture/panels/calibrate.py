@@ -67,7 +67,7 @@ OP2_TOLERANCE = {"mass": 0.05, "frequency": 0.10, "modes": 3}
 """How far an OP2 reference may lie from the project's own FEM of the same panel and mesh before it is
 refused (unless forced): the mass its mass-normalised shapes imply (relative, 5 %) and each of its
 first ``modes`` frequencies (relative, 10 %). Independent solvers on this mesh agree to 0.02-0.45 %
-(MYSTRAN, see DESIGN.md); an OP2 of the wrong panel mass once gave stiffnesses 3.5 times too low."""
+(MYSTRAN, see the README's design notes); an OP2 of the wrong panel mass once gave stiffnesses 3.5 times too low."""
 
 
 def compare_with_fem(modes: PanelModes, geometry: PanelGeometry, laminate: Laminate, *,
