@@ -19,7 +19,7 @@ from pathlib import Path
 
 from postcapture.core.errors import OutputPathError
 
-__all__ = ["TAG", "check_output_file", "check_output_folder", "write_atomic", "temp_name", "remove_stale",
+__all__ = ["TAG", "check_output_file", "check_output_folder", "write_atomic", "temp_name", "remove_stale", "left_by_dead",
            "writer_failure", "process_alive", "fsync", "safe_stem"]
 
 logger = logging.getLogger(__name__)
@@ -66,26 +66,34 @@ def process_alive(pid: int) -> bool:
     return True
 
 
+def left_by_dead(folder, pid_of) -> list[os.DirEntry]:
+    """Entries of ``folder`` that a process which no longer runs left: ``pid_of(name)`` gives the process id in
+    an entry's name, or None for an entry that is not such a leftover."""
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return []
+    out = []
+    for entry in entries:
+        pid = pid_of(entry.name)
+        if pid is not None and pid != os.getpid() and not process_alive(pid):  # not ours, nor a running writer's
+            out.append(entry)
+    return out
+
+
 def remove_stale(folder: Path, target: str) -> int:
     """Remove the temporaries of ``target`` in ``folder`` left by processes that no longer run.
 
     Returns the number removed. Only names made by :func:`temp_name` are touched.
     """
     prefix = f".{target}{TAG}"
+
+    def pid_of(name: str) -> int | None:
+        head = name[len(prefix):].split("-", 1)[0] if name.startswith(prefix) else ""
+        return int(head) if head.isascii() and head.isdigit() else None
+
     removed = 0
-    try:
-        entries = list(os.scandir(folder))
-    except OSError:
-        return 0
-    for entry in entries:
-        if not entry.name.startswith(prefix):
-            continue
-        head = entry.name[len(prefix):].split("-", 1)[0]
-        if not (head.isascii() and head.isdigit()):
-            continue
-        pid = int(head)
-        if pid == os.getpid() or process_alive(pid):
-            continue  # ours or another running writer's
+    for entry in left_by_dead(folder, pid_of):
         try:
             if entry.is_dir(follow_symlinks=False):
                 shutil.rmtree(entry.path)

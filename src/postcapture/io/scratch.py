@@ -15,7 +15,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from postcapture.io.atomic import process_alive
+from postcapture.io.atomic import left_by_dead
 
 __all__ = ["scratch_folder", "remove_stale_scratch"]
 
@@ -27,21 +27,17 @@ def remove_stale_scratch(kind: str, folder: str | os.PathLike | None = None) -> 
     no longer run; returns how many."""
     base = Path(folder if folder is not None else tempfile.gettempdir())
     pattern = re.compile(re.escape(kind) + r"-([0-9]+)-[A-Za-z0-9_]+", re.ASCII)
+
+    def pid_of(name: str) -> int | None:
+        m = pattern.fullmatch(name)
+        return int(m.group(1)) if m else None
+
     removed = 0
-    try:
-        entries = list(os.scandir(base))
-    except OSError:
-        return 0
-    for entry in entries:
-        m = pattern.fullmatch(entry.name)
-        if m is None or not entry.is_dir(follow_symlinks=False):
-            continue
-        pid = int(m.group(1))
-        if pid == os.getpid() or process_alive(pid):
-            continue
-        shutil.rmtree(entry.path, ignore_errors=True)
-        removed += not os.path.lexists(entry.path)
-        logger.info("removed %s, left by a process that was killed", entry.path)
+    for entry in left_by_dead(base, pid_of):
+        if entry.is_dir(follow_symlinks=False):
+            shutil.rmtree(entry.path, ignore_errors=True)
+            removed += not os.path.lexists(entry.path)
+            logger.info("removed %s, left by a process that was killed", entry.path)
     return removed
 
 
