@@ -115,3 +115,16 @@ def test_cli_json_prints_null_not_nan(tmp_path, capsys):
     out = capsys.readouterr().out
     assert code == 0 and "NaN" not in out and "Infinity" not in out
     json.loads(out, parse_constant=lambda t: (_ for _ in ()).throw(AssertionError(t)))
+
+
+def test_the_run_report_is_one_page_with_what_a_review_needs(files):
+    report = (Path(files["run"]).parent / "report.md").read_text()
+    for heading in ("# Main job: scenario envisat", "## Provenance", "## Consistency", "## Table", "## Every metric",
+                    "## Figures"):
+        assert heading in report, heading
+    assert f"postcapture {pc.__version__}" in report and "![mass estimates](mass_estimates.png)" in report
+    # every scalar metric of every case is a row, whatever metrics the estimation side adds
+    summary = json.loads(Path(files["run_summary"]).read_text())
+    for key, value in summary["cases"]["joint"].items():
+        if not isinstance(value, (list, dict)):
+            assert f"| `{key}` |" in report, key
