@@ -69,8 +69,18 @@ def _figures(names: list[str]) -> list[str]:
 
 def _truth_line(summary: dict) -> str:
     truth = summary.get("truth") or {}
-    source = truth.get("source", "the nominal scenario")
-    return f"Truth: {source}" + (f", panels in {truth['panel_segments']} segments" if truth.get("panel_segments") else "")
+    source = truth.get("source", "nominal")
+    source = "the nominal scenario (the filters' own model)" if source == "nominal" else source
+    segments = truth.get("panel_segments")
+    return f"Truth: {source}" + (f", panels in {', '.join(map(str, segments))} segments" if segments else "")
+
+
+def _percent(value) -> str:
+    return "-" if value is None else f"{100.0 * value:.1f} %"
+
+
+def _kg(value) -> str:
+    return "-" if value is None else f"{value:.1f}"
 
 
 def run_report(summary: dict, table: str, figures: list[str]) -> str:
@@ -78,7 +88,7 @@ def run_report(summary: dict, table: str, figures: list[str]) -> str:
     s = summary
     lines = [f"# Main job: scenario {s.get('scenario')}, {s.get('profile')} profile, seed {s.get('seed')}", "",
              f"{s.get('duration_s', 0):g} s, plant {s.get('plant', 'native')}. {_truth_line(s)}; true mass "
-             f"{_num(s.get('true_mass_kg'))} kg, the filters start at {_num(s.get('initial_mass_kg'))} kg.", "",
+             f"{_kg(s.get('true_mass_kg'))} kg, the filters start at {_kg(s.get('initial_mass_kg'))} kg.", "",
              "## Provenance", "", *_provenance(s.get("provenance") or {}), "",
              "## Consistency", "",
              "| case | final mass error inside its 3σ | attitude inside 3σ | attitude NEES (3 expected) | diverged |",
@@ -86,7 +96,7 @@ def run_report(summary: dict, table: str, figures: list[str]) -> str:
     for name, m in s.get("cases", {}).items():
         err, sig = m.get("mass_error_kg"), m.get("mass_sigma_kg")
         inside = "-" if err is None or sig is None else ("yes" if abs(err) <= 3 * sig else "**no**")
-        lines.append(f"| {name} | {inside} | {_num(m.get('inside_3sigma'))} | {_num(m.get('nees_mean'))} | "
+        lines.append(f"| {name} | {inside} | {_percent(m.get('inside_3sigma'))} | {_num(m.get('nees_mean'))} | "
                      f"{'no' if m.get('success', True) else '**' + (m.get('message') or 'yes') + '**'} |")
     lines += ["", "## Table", "", "```", table, "```", "", "## Every metric", "", *metrics_table(s.get("cases", {})),
               "", "## Figures", "", *_figures(figures)]
@@ -105,7 +115,7 @@ def campaign_report(summary: dict, table: str, figures: list[str]) -> str:
     for name, c in s.get("cases", {}).items():
         lines.append(f"| {name} | {verdict(c.get('nees_mean'), c.get('nees_band'))} | "
                      f"{verdict(c.get('attitude_nees_mean'), c.get('attitude_nees_band'))} | "
-                     f"{_num(c.get('inside_3sigma_fraction'))} | {_num(c.get('diverged_runs'))} |")
+                     f"{_percent(c.get('inside_3sigma_fraction'))} | {_num(c.get('diverged_runs'))} |")
     lines += ["", "## Table", "", "```", table, "```", "", "## Every metric", "", *metrics_table(s.get("cases", {})),
               "", "## Figures", "", *_figures(figures)]
     return "\n".join(lines).rstrip() + "\n"
