@@ -65,7 +65,7 @@ def _plant_core(shown) -> None:
     """Load the compiled plant core before the work, saying so: on first use it is compiled (5-10 s)."""
     from postcapture.dynamics.compiled import compile_seconds, load_library
 
-    shown.phase("plant core (compiled with the system's C compiler on first use: 5-10 s)")
+    shown.phase("plant core (compiled on first use, 5-10 s)")
     load_library()
     if compile_seconds() > 0:
         _note(f"the plant core was compiled in {compile_seconds():.1f} s (first use of this version); it is "

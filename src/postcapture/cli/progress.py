@@ -138,7 +138,10 @@ class ProgressDisplay:
         running = sum(0.0 < f < 1.0 or (n in self.tasks and f < 1.0) for n, f in zip(self.expected, fractions))
         queued = len(self.expected) - done - running
         total = sum(fractions) / len(self.expected)
-        if self._overall_bar is not None:
+        if self._overall_bar is not None and done == len(self.expected):
+            self._overall_bar.close()  # every task done: the line goes, as a task's bar does
+            self._overall_bar = None
+        elif self._overall_bar is not None:
             self._overall_bar.set_description_str(f"  all {len(self.expected)}: {done} done, {running} running, "
                                                   f"{queued} queued"[:38], refresh=False)
             self._overall_bar.n = int(round(1000 * total))
