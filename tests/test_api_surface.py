@@ -61,7 +61,7 @@ def test_campaign_result_has_the_run_results_surface(study, tmp_path):
 def test_reprs_are_short(study):
     cal = pc.calibrate_panel("envisat", weights=[0.1])
     run = pc.run("envisat", duration=2.0, cases=["mekf_flexible"], crlb=False, workers=1)
-    for obj in (study, cal, run, pc.simulate("envisat", duration=1.0)):
+    for obj in (study, cal, run, pc.simulate("envisat", duration=1.0), pc.load_scenario("envisat")):
         text = repr(obj)
         assert len(text) < 300 and "\n" not in text, text
     assert "3 runs" in repr(study) and "scenario_json" not in repr(study)

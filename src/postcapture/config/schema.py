@@ -399,6 +399,11 @@ class Scenario(Frozen):
             raise problems(found)
         return self
 
+    def __repr__(self) -> str:
+        target = f"target {self.target.mass:g} kg" if self.target is not None else "no target"
+        return (f"Scenario({self.name!r}: chaser {self.chaser.mass:g} kg, {self.n_arm} arm joints, {target}, "
+                f"{len(self.panels())} panels, {self.simulation.duration:g} s)")
+
     @property
     def n_arm(self) -> int:
         """Number of arm joints."""
