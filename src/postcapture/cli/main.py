@@ -349,6 +349,8 @@ class _NoteFormatter(logging.Formatter):
 
     def format(self, record):
         text = record.getMessage()
+        if not record.name.startswith("postcapture"):  # another library's: say whose
+            return f"{record.levelname.lower()} ({record.name}): {text}"
         if record.levelno >= logging.ERROR:
             return f"postcapture: {record.levelname.lower()}: {text}"
         return f"postcapture: note: {text}"
