@@ -171,14 +171,16 @@ def test_titles_name_the_truths_source(dataset):
     assert "truth: draw 7" in main_job_figures(drawn)["mass_estimates"]._suptitle.get_text()
 
 
-def test_figures_in_every_format(job, tmp_path):
-    from postcapture.studies.results import write_results
+def test_figures_in_every_format(dataset, job, tmp_path):
+    """``--format png|pdf|svg`` and ``--dpi``: the writer each figure goes through (one figure is enough)."""
+    from postcapture.studies.results import _save_figure
 
-    for fmt, magic in (("pdf", b"%PDF"), ("svg", b"<?xml")):
-        paths = write_results(job[0], tmp_path / fmt, fmt=fmt)
-        assert paths["mass_estimates"].suffix == f".{fmt}" and paths["mass_estimates"].read_bytes()[:5].startswith(magic)
-    small = write_results(job[0], tmp_path / "dpi", dpi=40)["mass_estimates"].stat().st_size
-    assert small < (job[1] / "mass_estimates.png").stat().st_size  # fewer pixels than at the default 110 dpi
+    fig = main_job_figures(dataset)["mass_estimates"]
+    for fmt, magic in (("pdf", b"%PDF"), ("svg", b"<?xml"), ("png", b"\x89PNG")):
+        _save_figure(fig, fmt, None)(str(tmp_path / f"m.{fmt}"))
+        assert (tmp_path / f"m.{fmt}").read_bytes().startswith(magic), fmt
+    _save_figure(fig, "png", 40)(str(tmp_path / "small.png"))
+    assert (tmp_path / "small.png").stat().st_size < (tmp_path / "m.png").stat().st_size  # fewer pixels than 110 dpi
 
 
 def test_identical_histories_are_labelled(dataset):
