@@ -18,6 +18,8 @@ $(VENV)/.run-stamp: pyproject.toml | $(VENV)/bin/python
 	@touch $@
 
 $(VENV)/.test-stamp: pyproject.toml | $(VENV)/bin/python
+	@# cfchecker (test extra) loads the system's UDUNITS-2 library: install it where it is missing (Debian)
+	@ldconfig -p | grep -q libudunits2 || { apt-get update -qq && apt-get install -y -qq libudunits2-0; }
 	$(PIP) install --quiet -e ".[all,test]"
 	@touch $@ $(VENV)/.run-stamp
 

@@ -18,10 +18,20 @@ called, so ``import postcapture`` stays light:
 """
 
 from postcapture._blas import limit_blas_threads
-from postcapture._version import __version__
 from postcapture.facade import RunResult, calibrate_panel, campaign, export_fmu, load_scenario, run, simulate
 
 limit_blas_threads()
+
+
+
+def __getattr__(name: str):
+    """``__version__`` is read from the installed metadata on first use (it costs a few tens of ms)."""
+    if name == "__version__":
+        from postcapture._version import __version__
+
+        return __version__
+    raise AttributeError(f"module 'postcapture' has no attribute {name!r}")
+
 
 __all__ = ["__version__", "load_scenario", "simulate", "run", "RunResult", "campaign", "calibrate_panel",
            "export_fmu"]

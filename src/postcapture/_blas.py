@@ -1,7 +1,7 @@
 """Pin BLAS to one thread for the library's small matrices (unless the user chose a thread count).
 
 The filters multiply 50 x 50 matrices thousands of times per run; OpenBLAS threads spinning on such
-sizes cost 2.6-5x on a busy two-core machine (DESIGN.md). Called once when ``postcapture`` is imported:
+sizes cost 2.6-5x on a busy two-core machine (README, "Design notes a maintainer needs"). Called once when ``postcapture`` is imported:
 before numpy is loaded the environment variables do it; after, threadpoolctl limits the loaded BLAS.
 An explicit ``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS`` or ``MKL_NUM_THREADS`` is left alone.
 """

@@ -9,6 +9,10 @@
 Each function takes a scenario object, a built-in name or a TOML path, and calls the one library
 function that does the work (named in its docstring), so the deeper modules stay available for
 everything else. Nothing heavy is imported until a function is called.
+
+Every function that takes time reports through one callback signature, ``progress(task, fraction)``:
+``task`` (str) names what is under way (``"truth simulation"``, a case, ``"runs"``, ``"calibration"``,
+``"fmu export"``) and ``fraction`` (float in [0, 1]) how far it is; 1.0 means that task is done.
 """
 
 from __future__ import annotations
@@ -16,7 +20,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-__all__ = ["load_scenario", "simulate", "run", "RunResult", "campaign", "calibrate_panel", "export_fmu"]
+Progress = Callable[[str, float], None]
+"""``progress(task, fraction)``: the one progress callback of the package (see the module docstring)."""
+
+__all__ = ["load_scenario", "simulate", "run", "RunResult", "campaign", "calibrate_panel", "export_fmu", "Progress"]
 
 
 def load_scenario(source="envisat"):
@@ -53,7 +60,7 @@ def load_scenario(source="envisat"):
 def simulate(scenario="envisat", *, variant: str = "flexible", duration: float | None = None,
              panel_segments: int | None = None, damping: bool = True, excitation: bool = True,
              integrator: str | None = None, step: float | None = None, sample_period: float | None = None,
-             progress: Callable[[float], None] | None = None):
+             progress: Progress | None = None):
     """Simulate a scenario's truth; see :func:`postcapture.dynamics.simulate.simulate` for the options.
 
     Parameters
@@ -65,10 +72,11 @@ def simulate(scenario="envisat", *, variant: str = "flexible", duration: float |
         Seconds (default: the scenario's).
     panel_segments : int, optional
     damping, excitation : bool, optional
-    integrator : {"sdirk3", "sdirk2", "rk4"}, optional
+    integrator : {"sdirk4", "sdirk3", "sdirk2", "rk4"}, optional
     step, sample_period : float, optional
         Seconds.
-    progress : callable(fraction), optional
+    progress : callable(task, fraction), optional
+        Called with ``("truth simulation", fraction)``.
 
     Returns
     -------
@@ -86,9 +94,10 @@ def simulate(scenario="envisat", *, variant: str = "flexible", duration: float |
     """
     from postcapture.dynamics.simulate import simulate as run_truth
 
+    report = None if progress is None else (lambda fraction: progress("truth simulation", fraction))
     return run_truth(load_scenario(scenario), variant=variant, duration=duration, panel_segments=panel_segments,
                      damping=damping, excitation=excitation, integrator=integrator, step=step,
-                     sample_period=sample_period, progress=progress)
+                     sample_period=sample_period, progress=report)
 
 
 class RunResult:
@@ -103,8 +112,10 @@ class RunResult:
     """
 
     def __init__(self, result):
+        from postcapture.studies.results import run_summary
+
         self.result = result
-        self.summary = result.summary()
+        self.summary = run_summary(result)
 
     @property
     def cases(self) -> tuple[str, ...]:
@@ -150,11 +161,12 @@ class RunResult:
 
         return main_job_figures(self.to_xarray())
 
-    def write(self, out_dir, *, figures: bool = True) -> dict:
-        """Write ``results.nc``, ``summary.json``, ``table.txt`` and the figures; returns the paths."""
+    def write(self, out_dir, *, figures: bool = True, fmt: str = "png", dpi: int | None = None) -> dict:
+        """Write ``results.nc``, ``summary.json``, ``table.txt``, the figures (``fmt``: png, pdf or svg) and
+        ``report.md``; returns the paths."""
         from postcapture.studies.results import write_results
 
-        return write_results(self.result, out_dir, figures=figures)
+        return write_results(self.result, out_dir, figures=figures, fmt=fmt, dpi=dpi)
 
     def __repr__(self) -> str:
         s = self.summary
@@ -178,7 +190,7 @@ def _truth(nominal, truth):
 def run(scenario="envisat", *, truth=None, profile: str = "reference", duration: float | None = None,
         cases: Sequence[str] | None = None, seed: int | None = None, initial_mass_error: float | None = None,
         plant: str = "native", mapping: str | Path | None = None, workers: int = 2, crlb: bool = True,
-        progress: Callable[[str, float], None] | None = None) -> RunResult:
+        progress: Progress | None = None) -> RunResult:
     """The main job: truth, sensors, the estimation cases, metrics (as ``postcapture run``).
 
     Calls :func:`postcapture.studies.main_job.run_main_job`.
@@ -209,6 +221,7 @@ def run(scenario="envisat", *, truth=None, profile: str = "reference", duration:
     crlb : bool, optional
         Also compute the mass Cramer-Rao bound.
     progress : callable(task, fraction), optional
+        Called with ``("truth simulation", f)``, then each case's name (and ``"crlb"``) with its fraction.
 
     Returns
     -------
@@ -238,7 +251,7 @@ def campaign(scenario="envisat", *, runs: int, dispersed: bool = False, truth=No
              cases: Sequence[str] = ("dual", "joint"), duration: float | None = None,
              initial_mass_error: float | None = None, scheduler: str | None = None, workers: int = 2,
              out: str | Path | None = None, fresh: bool = False, crlb: bool = True,
-             progress: Callable[[str, int, int], None] | None = None):
+             progress: Progress | None = None):
     """A Monte Carlo campaign on Dask (as ``postcapture campaign``).
 
     Calls :func:`postcapture.studies.montecarlo.run_campaign`.
@@ -265,12 +278,14 @@ def campaign(scenario="envisat", *, runs: int, dispersed: bool = False, truth=No
         Discard saved runs instead of resuming.
     crlb : bool, optional
         Also compute the mass bounds.
-    progress : callable(message, done, total), optional
+    progress : callable(task, fraction), optional
+        Called with ``("runs", done / runs)`` as runs finish.
 
     Returns
     -------
     CampaignResult
-        ``.summary()``, ``.to_xarray()`` (run x case x time), ``.runs``.
+        ``.table``, ``.summary()``, ``.to_pandas()``, ``.to_xarray()`` (run x case x time), ``.figures()``,
+        ``.write(folder)``, ``.runs``.
 
     Examples
     --------
@@ -287,7 +302,7 @@ def campaign(scenario="envisat", *, runs: int, dispersed: bool = False, truth=No
 
 
 def calibrate_panel(panel="envisat", *, segments: int = 5, weights: Sequence[float] = (1.0, 10.0, 0.1),
-                    reference="fem", progress: Callable[[int, int, str], None] | None = None):
+                    reference="fem", progress: Progress | None = None):
     """Calibrate a panel's lumped chain against a plate FEM (as ``postcapture panel calibrate``).
 
     Calls :func:`postcapture.panels.calibrate`, where the other options are.
@@ -302,7 +317,8 @@ def calibrate_panel(panel="envisat", *, segments: int = 5, weights: Sequence[flo
         Mode-shape weights, one fit each.
     reference : {"fem"} or Path, optional
         The built-in plate FEM, or a Nastran OP2 file.
-    progress : callable(done, total, message), optional
+    progress : callable(task, fraction), optional
+        Called with ``("calibration", done / total)`` after each step.
 
     Returns
     -------
@@ -318,12 +334,13 @@ def calibrate_panel(panel="envisat", *, segments: int = 5, weights: Sequence[flo
     """
     from postcapture.panels import calibrate
 
-    return calibrate(panel, segments=segments, weights=tuple(weights), reference=reference, progress=progress)
+    report = None if progress is None else (lambda done, total, message: progress("calibration", done / total))
+    return calibrate(panel, segments=segments, weights=tuple(weights), reference=reference, progress=report)
 
 
 def export_fmu(scenario, path, *, variant: str = "flexible", directional_derivatives: bool = True,
                step_jacobian: bool = True, panel_segments: int | None = None,
-               progress: Callable[[str], None] | None = None):
+               progress: Progress | None = None):
     """Export a scenario's plant as an FMI 2.0 co-simulation FMU (compiled C, no Python inside).
 
     Calls :func:`postcapture.fmi.export_fmu`, where the other options are.
@@ -339,7 +356,8 @@ def export_fmu(scenario, path, *, variant: str = "flexible", directional_derivat
     step_jacobian : bool, optional
         Add the exact step and measurement Jacobian outputs.
     panel_segments : int, optional
-    progress : callable(message), optional
+    progress : callable(task, fraction), optional
+        Called with ``("fmu export", fraction)`` at each of its four phases and at the end.
 
     Returns
     -------
@@ -348,5 +366,18 @@ def export_fmu(scenario, path, *, variant: str = "flexible", directional_derivat
     """
     from postcapture.fmi import export_fmu as export
 
-    return export(load_scenario(scenario), path, variant=variant, directional_derivatives=directional_derivatives,
-                  step_jacobian=step_jacobian, panel_segments=panel_segments, progress=progress)
+    phases = []
+
+    def report(message):
+        phases.append(message)
+        progress("fmu export", min(len(phases) - 1, _EXPORT_PHASES) / _EXPORT_PHASES)
+
+    result = export(load_scenario(scenario), path, variant=variant, directional_derivatives=directional_derivatives,
+                    step_jacobian=step_jacobian, panel_segments=panel_segments,
+                    progress=None if progress is None else report)
+    if progress is not None:
+        progress("fmu export", 1.0)
+    return result
+
+
+_EXPORT_PHASES = 4  # building the plant, writing the sources, compiling, writing the description

@@ -100,7 +100,7 @@ def test_bad_option_value_exits_1(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["simulate", "--panel-segments", "0"])
     assert exc.value.code == 1
-    assert "expected a positive integer" in capsys.readouterr().err
+    assert "expected a number of panel segments in [1, 1000]" in capsys.readouterr().err
 
 
 @pytest.mark.slow  # compiles the core from scratch and runs a short main job (about 30 s)

@@ -8,6 +8,7 @@ import xarray as xr
 from postcapture.dynamics.simulate import simulate
 from postcapture.core.errors import OutputPathError
 from postcapture.io import write_atomic
+from postcapture.io.netcdf import labelled
 
 
 @pytest.fixture(scope="module")
@@ -17,14 +18,15 @@ def short_run(envisat):
 
 def test_netcdf_round_trip_with_units(short_run, tmp_path):
     path = short_run.to_netcdf(tmp_path / "run.nc")
-    with xr.open_dataset(path) as ds:
+    with xr.open_dataset(path) as raw:
+        ds = labelled(raw)  # the file's labels are character coordinates (CF): back on their dimensions
         assert ds["q_BN"].attrs["units"] == "1"
         assert ds["accel_B"].attrs["units"] == "m/s^2"
         assert ds["time"].attrs["units"] == "s"
-        assert list(ds["q_BN_component"].values) == ["w", "x", "y", "z"]
+        assert list(ds["quaternion"].values) == ["w", "x", "y", "z"]
         np.testing.assert_array_equal(ds["q_BN"].values, short_run["q_BN"])
         assert ds.attrs["scenario"] == "envisat"
-        assert ds["q_BN"].dims == ("q_BN_component", "time")  # time is the last axis
+        assert ds["q_BN"].dims == ("quaternion", "time")  # time is the last axis
 
 
 def test_failed_write_leaves_the_old_file_intact(tmp_path):
@@ -94,7 +96,8 @@ def test_inputs_are_named_channels_with_the_scenario_values(forced_file):
 def test_state_vector_is_split_into_named_variables(forced_file):
     """The named state variables agree with the outputs computed from it (attitude, rate, arm angles)."""
     traj, path = forced_file
-    with xr.open_dataset(path) as ds:
+    with xr.open_dataset(path) as raw:
+        ds = labelled(raw)
         xyzw = ds["state_chaser_quaternion"].values
         q_wxyz = np.vstack([xyzw[3], xyzw[:3]])
         q_wxyz *= np.where(q_wxyz[0] < 0, -1.0, 1.0)

@@ -49,8 +49,8 @@ def test_rate_overlapping_the_attitude_is_refused_everywhere(tiny_dir, tmp_path)
          r"\[state\] attitude: 'q_w' listed more than once"),
         (lambda m: m + '[jacobians]\nrequest = "reset"\nF = "F[{i}]"\ng = "g[{i}]"\nH = "H[{i},{j}]"\nh = "h[{k}]"\n',
          r"\[jacobians\] F: expected a pattern holding \{i\} and \{j\}.*\n.*\[jacobians\] h: 'h\[\{k\}\]' is not a name"),
-        (lambda m: m + "[correction2]\n", r"\[correction2\]: not a mapping section"),
-        (lambda m: m.replace('reset = "reset"', 'reset = "reset"\nrest = "x"'), r"\[correction\] rest: not a key"),
+        (lambda m: m + "[correction2]\n", r"\[correction2\]: expected a known key"),
+        (lambda m: m.replace('reset = "reset"', 'reset = "reset"\nrest = "x"'), r"\[correction\] rest: expected a known key.*\(did you mean 'reset'\?\)"),
     ],
 )
 def test_malformed_mappings_list_every_problem(change, message):

@@ -35,7 +35,8 @@ def test_acceptance_envisat_w_0_1_first_peak_within_1_percent_and_mac_at_least_0
 
 def test_json_has_exactly_the_issue_shape(envisat):
     doc = json.loads(envisat.to_json())
-    assert set(doc) == {"fem_hz", "runs"} and len(doc["fem_hz"]) == 3
+    assert set(doc) == {"reference", "forced_reference", "fem_hz", "runs"} and len(doc["fem_hz"]) == 3
+    assert doc["forced_reference"] is False
     assert list(doc["runs"]) == ["w=1", "w=10", "w=0.1"]
     for run in doc["runs"].values():
         assert set(run) == {"k", "k_torsion", "peak_hz", "fem_peak_hz", "mac"}
@@ -55,6 +56,34 @@ def test_toml_fragment_is_a_scenario_panel_with_the_fitted_chain(envisat):
     f_bending = modes.frequencies_hz[modes.indices("bending")[:3]]
     np.testing.assert_allclose(f_bending, run.frequencies_hz, rtol=1e-5)
     assert "damping_beta" in text and "mount" in text
+
+
+def test_the_fragment_pastes_into_a_scenario_unchanged(envisat):
+    """Issue 18: the fragment had to be edited before a scenario would take it."""
+    from importlib import resources
+
+    from postcapture.config.loader import scenario_from_dict
+
+    text = (resources.files("postcapture.config") / "scenarios" / "envisat.toml").read_text()
+    head, rest = text.split("[[target.panels]]", 1)
+    after = rest[rest.index("\n[[excitation]]"):] if "\n[[excitation]]" in rest else ""
+    pasted = head + envisat.toml_fragment("w=0.1") + after  # the wing replaced by the calibrated one, as written
+    scenario = scenario_from_dict(tomllib.loads(pasted))
+    (wing,) = scenario.target.panels
+    np.testing.assert_allclose(wing.bending_stiffness, envisat.runs["w=0.1"].k, rtol=1e-5)
+    assert wing.damping_beta > 0 and wing.name == "envisat"
+
+
+def test_calibration_is_repeatable_bit_for_bit():
+    """Issue 18: four runs gave four --json outputs (the eigensolver started from a random vector)."""
+    from postcapture.panels import calibrate
+
+    first = calibrate("envisat", weights=(0.1,)).to_json()
+    assert calibrate("envisat", weights=(0.1,)).to_json() == first
+
+
+def test_the_repr_is_short(envisat):
+    assert len(repr(envisat)) < 300 and "w=0.1" in repr(envisat)
     assert "[[chaser.panels]]" in envisat.toml_fragment(host="chaser", name="my_wing")
     with pytest.raises(PanelModelError, match="run: expected one of w=1, w=10, w=0.1"):
         envisat.toml_fragment("w=3")

@@ -3,6 +3,8 @@ FEM of the panel (its mass, its first frequencies) is refused unless forced."""
 
 import dataclasses
 
+import json
+
 import numpy as np
 import pytest
 from panel_cases import write_modes_op2
@@ -67,7 +69,11 @@ def test_a_wrong_op2_is_refused_unless_forced(heavy_op2, caplog):
         calibrate("envisat", weights=(0.1,), reference=heavy_op2)
     forced = calibrate("envisat", weights=(0.1,), reference=heavy_op2, force_reference=True)
     assert "beyond the tolerance; forced" in forced.reference and "forced" in caplog.text
+    # a program tells a forced calibration from a good one (issue 18), and the warning says what happened
+    assert json.loads(forced.to_json())["forced_reference"] is True
+    assert "Used anyway, as --force-reference asks" in caplog.text and "; forced" not in caplog.text
     right = calibrate("envisat", weights=(0.1,))
+    assert json.loads(right.to_json())["forced_reference"] is False
     # what the check prevents: the fit on the heavy panel's modes gives far softer springs
     assert np.all(forced.runs["w=0.1"].k < 0.5 * right.runs["w=0.1"].k)
 

@@ -60,6 +60,7 @@ def test_every_figure_is_written(job):
         expected |= {spec.stem.format(case=c) for c in CASES} if "{case}" in spec.stem else {spec.stem}
     pngs = {p.stem for p in out.glob("*.png")}
     assert pngs == expected
+    assert (out / "report.md").exists()
     for stem in expected:
         data = (out / f"{stem}.png").read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
@@ -110,17 +111,21 @@ def test_bands_cover_the_whole_span_of_their_case(dataset, diverge):
             if role != "band":
                 continue
             bands += 1
-            assert isinstance(artist, PolyCollection)
-            x = np.concatenate([p.vertices[:, 0] for p in artist.get_paths()])
+            assert isinstance(artist, Line2D)  # a band is drawn as its edges, never as a fill (issue 18)
+            x, y = np.asarray(artist.get_xdata()), np.asarray(artist.get_ydata())
+            drawn = x[np.isfinite(y)]
             if stem.startswith("mass"):
                 finite = np.isfinite(ds["mass_est"].sel(case=case).values) & np.isfinite(
                     ds["mass_sigma"].sel(case=case).values)
             else:
                 finite = np.all(np.isfinite(ds["attitude_sigma"].sel(case=case).values), axis=0)
             start, stop, count = _span(t, finite)
-            assert x.min() == pytest.approx(start) and x.max() == pytest.approx(stop), (stem, case)
-            assert np.unique(np.round(x, 9)).size == count, (stem, case)  # every sample of the span, no gap
-    assert bands >= len(CASES) + 2  # one per attitude-error figure, and the mass bands of distinct histories
+            assert drawn.min() == pytest.approx(start) and drawn.max() == pytest.approx(stop), (stem, case)
+            assert drawn.size == count, (stem, case)  # every sample of the span, no gap
+    # two edges per attitude-error figure, per mass band of a distinct history, one 3σ line per attitude case
+    assert bands >= 2 * (len(CASES) + 2)
+    assert not [a for fig in main_job_figures(ds).values() for ax in fig.axes for a in ax.collections
+                if isinstance(a, PolyCollection) and "band" in (a.get_gid() or "")]
     if diverge:
         marks = [(stem, case) for stem, fig in main_job_figures(ds).items()
                  for case, role, _ in _case_artists(fig) if role == "divergence"]
@@ -137,6 +142,45 @@ def test_titles_name_scenario_profile_seed_and_legends_sit_outside(dataset, job)
     mass = main_job_figures(dataset)["mass_estimates"]
     panels = [ax.get_title(loc="left") for ax in mass.axes]
     assert panels[0].startswith("(a) flexible") and panels[1].startswith("(b) stiff")
+
+
+def test_no_case_is_drawn_in_the_truths_colour():
+    """Issue 18: joint was drawn black dotted, the truth's colour, and hidden under dual."""
+    from postcapture.report.style import CASE_STYLES, TRUTH_STYLE
+
+    colours = [to_hex(s.color) for s in CASE_STYLES.values()]
+    assert to_hex(TRUTH_STYLE["color"]) not in colours
+    assert len(set(zip(colours, map(str, (s.linestyle for s in CASE_STYLES.values()))))) == len(CASE_STYLES)
+    assert CASE_STYLES["joint"].zorder > CASE_STYLES["dual"].zorder and CASE_STYLES["joint"].linestyle != "-"
+
+
+def test_one_figure_per_distinct_attitude_history(dataset):
+    """Issue 18: three of six attitude_error_*.png were identical. A case whose history equals an earlier one's
+    gets no figure of its own; the first one's title names both."""
+    ds = dataset.copy(deep=True)
+    ds["attitude_error"].loc[{"case": "ekf_stiff"}] = ds["attitude_error"].sel(case="ekf_flexible").values
+    figures = main_job_figures(ds)
+    assert "attitude_error_ekf_stiff" not in figures and "attitude_error_ekf_flexible" in figures
+    assert "ekf_flexible = ekf_stiff" in figures["attitude_error_ekf_flexible"]._suptitle.get_text()
+
+
+def test_titles_name_the_truths_source(dataset):
+    for stem, fig in main_job_figures(dataset).items():
+        assert "truth: the nominal scenario" in fig._suptitle.get_text(), stem
+    drawn = dataset.assign_attrs(truth_source="draw 7")
+    assert "truth: draw 7" in main_job_figures(drawn)["mass_estimates"]._suptitle.get_text()
+
+
+def test_figures_in_every_format(dataset, job, tmp_path):
+    """``--format png|pdf|svg`` and ``--dpi``: the writer each figure goes through (one figure is enough)."""
+    from postcapture.studies.results import _save_figure
+
+    fig = main_job_figures(dataset)["mass_estimates"]
+    for fmt, magic in (("pdf", b"%PDF"), ("svg", b"<?xml"), ("png", b"\x89PNG")):
+        _save_figure(fig, fmt, None)(str(tmp_path / f"m.{fmt}"))
+        assert (tmp_path / f"m.{fmt}").read_bytes().startswith(magic), fmt
+    _save_figure(fig, "png", 40)(str(tmp_path / "small.png"))
+    assert (tmp_path / "small.png").stat().st_size < (tmp_path / "m.png").stat().st_size  # fewer pixels than 110 dpi
 
 
 def test_identical_histories_are_labelled(dataset):

@@ -158,7 +158,22 @@ class Pass:
         for problem in info["mapping"]["problems"]:
             self.add(option, "an FMU and mapping the filters can run", problem)
 
+    def scheduler(self, option: str, address) -> None:
+        """A Dask scheduler must answer at ``address`` (a bounded wait, see :mod:`postcapture.studies.scheduler`)."""
+        from postcapture.studies.scheduler import check_scheduler
+
+        try:
+            check_scheduler(address)
+        except ScenarioError as exc:
+            self.absorb(exc, {"--scheduler": option})
+
     # ------------------------------------------------------------------ verdict
+    def paths_checked(self) -> None:
+        """Raise now when an output path is already refused: a bad ``--out`` is reported within a fraction of a
+        second, before the scenario and the run's plan are loaded (which import the numerical libraries)."""
+        if self.problems:
+            self.finish()
+
     def finish(self) -> None:
         """Raise the problems found, if any."""
         if self.scenario_error is not None and not self.problems:
@@ -188,9 +203,10 @@ def simulate(args) -> None:
     from postcapture.config.limits import degrees_of_freedom, estimate_simulation, truth_step_guess
 
     check = Pass("simulate")
-    scenario = check.scenario(args.scenario)
     if args.out is not None:
         check.output_file("--out", args.out)
+    check.paths_checked()
+    scenario = check.scenario(args.scenario)
     effective = check.with_options(scenario, args, args.variant) if scenario is not None else None
     if scenario is not None and args.out is None:
         check.output_file("--out", default_simulate_out(scenario, args.variant))
@@ -228,13 +244,14 @@ def _truth_options(check: Pass, args, scenario) -> None:
 
 def run(args) -> None:
     """``postcapture run``: scenario, every setting of the run (:func:`plan_run`), truth, FMU, output, resources."""
+    check = Pass("run")
+    check.output_folder("--out", args.out)
+    check.paths_checked()
+    from postcapture.config.limits import estimate_run
     from postcapture.studies.cases import default_cases
     from postcapture.studies.setup import plan_run
-    from postcapture.config.limits import estimate_run
 
-    check = Pass("run")
     scenario = check.scenario(args.scenario)
-    check.output_folder("--out", args.out)
     plant = args.plant
     if plant.startswith("fmu:") and len(plant) > 4:
         check.fmu("--plant", plant[4:], args.map)
@@ -263,14 +280,17 @@ def campaign(args) -> None:
     from postcapture.config.limits import estimate_run
 
     check = Pass("campaign")
-    scenario = check.scenario(args.scenario)
     check.output_folder("--out", args.out)
+    check.paths_checked()
+    scenario = check.scenario(args.scenario)
     if args.dispersed and args.truth_scenario:
         check.add("--truth-scenario", "no fixed truth with --dispersed (each run draws its own)", args.truth_scenario)
     elif scenario is not None:
         _truth_options(check, args, scenario)
     if scenario is not None:
         check.with_options(scenario, args)
+    if args.scheduler is not None:
+        check.scheduler("--scheduler", args.scheduler)
     check.finish()
     check.resources(estimate_run(scenario, duration=args.duration, n_cases=len(args.cases) + (not args.no_crlb),
                                  runs=args.runs, workers=max(1, args.workers)))
@@ -293,12 +313,11 @@ def fmu_export(args) -> None:
     from postcapture.fmi.mapping import mapping_sidecar
 
     check = Pass("fmu export")
-    scenario = check.scenario(args.scenario)
-    if args.fmi != 2:
-        check.add("--fmi", "2 (FMI 3.0 export is not implemented yet)", args.fmi)
     check.output_file("--output", args.output)
     if str(args.output).strip():
         check.output_file("--output (its mapping file)", mapping_sidecar(args.output))
+    check.paths_checked()
+    scenario = check.scenario(args.scenario)
     effective = check.with_options(scenario, args, args.variant) if scenario is not None else None
     check.finish()
     check.resources(estimate_model(degrees_of_freedom(effective, args.variant)))

@@ -23,6 +23,10 @@ __all__ = [
     "cmd_modes",
     "cmd_bench",
     "cmd_panel_calibrate",
+    "cmd_scenario_show",
+    "cmd_scenario_new",
+    "cmd_scenario_validate",
+    "cmd_scenario_reference",
 ]
 
 
@@ -35,7 +39,9 @@ def _display(args, command: str) -> ProgressDisplay:
 
 
 def _print_json(obj) -> None:
-    print(json.dumps(obj, indent=2, default=float))
+    from postcapture.io import json_text
+
+    print(json_text(obj))
 
 
 def _echo(text: str, *, file=None) -> None:
@@ -55,6 +61,17 @@ def _note(text: str) -> None:
     _echo(f"note: {text}", file=sys.stderr)
 
 
+def _plant_core(shown) -> None:
+    """Load the compiled plant core before the work, saying so: on first use it is compiled (5-10 s)."""
+    from postcapture.dynamics.compiled import compile_seconds, load_library
+
+    shown.phase("plant core (compiled on first use, 5-10 s)")
+    load_library()
+    if compile_seconds() > 0:
+        _note(f"the plant core was compiled in {compile_seconds():.1f} s (first use of this version); it is "
+              "cached from now on")
+
+
 def _written(folder, names) -> str:
     return f"written to {folder}/: {', '.join(sorted(names))}"
 
@@ -63,10 +80,12 @@ def cmd_simulate(args) -> int:
     checks.simulate(args)  # everything given, checked before any work
     from postcapture.config import load_scenario
     from postcapture.dynamics.simulate import drift_metrics, simulate
+    from postcapture.io.provenance import provenance
 
     scenario = load_scenario(args.scenario)
     out = args.out or checks.default_simulate_out(scenario, args.variant)
     with _display(args, "simulate") as shown:
+        _plant_core(shown)
         shown.phase(f"{scenario.name}, {args.variant} model")
         traj = simulate(
             scenario,
@@ -80,7 +99,7 @@ def cmd_simulate(args) -> int:
             progress=shown.fraction_callback("truth simulation"),
         )
         shown.phase("writing the NetCDF file")
-        traj.to_netcdf(out)
+        traj.to_netcdf(out, provenance=provenance(scenario))
     wall = traj.attrs["wall_s"]
     duration = float(traj.t[-1] - traj.t[0])
     summary = {
@@ -128,7 +147,7 @@ def cmd_run(args) -> int:
     checks.run(args)  # everything given, checked before any work
     from postcapture.studies.cases import DEFAULT_CASES
     from postcapture.studies.main_job import run_main_job
-    from postcapture.studies.results import write_results
+    from postcapture.studies.results import run_summary, write_results
     from postcapture.config import load_scenario
     from postcapture.report.table import results_table
 
@@ -144,6 +163,8 @@ def cmd_run(args) -> int:
             _note(note)
     cases = cases or DEFAULT_CASES
     with _display(args, "run") as shown:
+        _plant_core(shown)
+        shown.expect(["truth simulation", *([] if args.no_crlb else ["crlb"]), *cases])
         shown.phase("truth simulation and sensors")
         jobs = len(cases) + (0 if args.no_crlb else 1)  # the Cramer-Rao bound is one more job
         processes = 1 if args.workers == 1 or jobs == 1 else min(args.workers, jobs)
@@ -169,8 +190,8 @@ def cmd_run(args) -> int:
             progress=progress,
         )
         shown.phase("writing results" + ("" if args.no_plots else " and figures"))
-        paths = write_results(result, args.out, figures=not args.no_plots)
-    summary = result.summary()
+        paths = write_results(result, args.out, figures=not args.no_plots, fmt=args.format, dpi=args.dpi)
+    summary = run_summary(result)
     if args.json:
         _print_json(summary)
     else:
@@ -185,6 +206,7 @@ def cmd_campaign(args) -> int:
     from postcapture.studies.montecarlo import run_campaign
     from postcapture.studies.results import write_campaign
     from postcapture.config import load_scenario
+    from postcapture.io.provenance import provenance
     from postcapture.report.campaign import campaign_table
 
     scenario = load_scenario(args.scenario)
@@ -193,20 +215,16 @@ def cmd_campaign(args) -> int:
                                      args.truth_scenario)])
     truth = checks.truth(args, scenario)
     with _display(args, "campaign") as shown:
+        _plant_core(shown)
         shown.phase(f"{args.runs} runs")
-
-        def progress(message, done, total):
-            if message.startswith("resuming"):
-                _note(f"{message} in {args.out}")  # said whatever the display: earlier runs are reused
-            shown.task("runs", done / total if total else 1.0)
 
         result = run_campaign(scenario, runs=args.runs, dispersed=args.dispersed, truth=truth, profile=args.profile,
                               cases=args.cases, duration=args.duration, initial_mass_error=args.initial_mass_error,
                               scheduler=args.scheduler, workers=args.workers, out=args.out, fresh=args.fresh,
-                              crlb=not args.no_crlb, progress=progress)
+                              crlb=not args.no_crlb, progress=shown.task)
         shown.phase("writing results" + ("" if args.no_plots else " and figures"))
-        paths = write_campaign(result, args.out, figures=not args.no_plots)
-    summary = result.summary()
+        paths = write_campaign(result, args.out, figures=not args.no_plots, fmt=args.format, dpi=args.dpi)
+    summary = {**result.summary(), "provenance": provenance(result.scenario)}
     if args.json:
         _print_json(summary)
     else:
@@ -354,4 +372,69 @@ def cmd_panel_calibrate(args) -> int:
         _echo(result.tables())
         if args.out:
             _echo(f"tables, JSON, TOML fragment and figures written to {args.out}")
+    return 0
+
+
+def cmd_scenario_show(args) -> int:
+    """``postcapture scenario show NAME|FILE``: a built-in scenario's text; a file's validated content as TOML."""
+    from postcapture.config import builtin_scenarios, load_scenario
+    from postcapture.config.tooling import builtin_text
+
+    if args.name in builtin_scenarios():
+        print(builtin_text(args.name), end="")
+        return 0
+    import tomli_w
+
+    from postcapture.io import plain
+
+    scenario = load_scenario(args.name)
+    print(tomli_w.dumps(plain(scenario.model_dump(exclude_none=True))), end="")
+    return 0
+
+
+def cmd_scenario_new(args) -> int:
+    """``postcapture scenario new --like NAME -o FILE``: a copy of a built-in scenario to edit."""
+    from pathlib import Path
+
+    from postcapture.config.tooling import new_scenario_text
+    from postcapture.io import check_output_file, write_atomic
+
+    check = checks.Pass("scenario new")
+    check.output_file("--output", args.output)
+    if Path(args.output).exists():
+        check.add("--output", "a new file (scenario new never overwrites one)", f"{args.output} (exists)")
+    check.finish()
+    text = new_scenario_text(args.like, Path(args.output).stem)
+    check_output_file(args.output)
+    write_atomic(args.output, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    _echo(f"written {args.output}: a copy of '{args.like}' named '{Path(args.output).stem}'; edit it, then check it "
+          f"with `postcapture scenario validate {args.output}`")
+    return 0
+
+
+def cmd_scenario_validate(args) -> int:
+    """``postcapture scenario validate FILE``: every problem with its path; the exit status is their number."""
+    from postcapture.config.tooling import check_scenario_file
+
+    scenario, problems = check_scenario_file(args.file)
+    if args.json:
+        _print_json({"file": args.file, "valid": scenario is not None,
+                     "problems": [{"path": p.path, "expected": p.expected, "found": p.found} for p in problems]})
+    elif scenario is not None:
+        panels = len(scenario.panels())
+        _echo(f"{args.file}: valid scenario '{scenario.name}': {scenario.n_arm} arm joints, {panels} panels, "
+              f"{'a target of ' + format(scenario.target.mass, 'g') + ' kg' if scenario.target else 'no target'}, "
+              f"{scenario.simulation.duration:g} s")
+    else:
+        _echo(f"{args.file}: {len(problems)} problem{'s' if len(problems) != 1 else ''}", file=sys.stderr)
+        for p in problems:
+            _echo(f"  - {p}", file=sys.stderr)
+    return min(len(problems), 100)
+
+
+def cmd_scenario_reference(args) -> int:
+    """``postcapture scenario reference``: the field reference page (Markdown)."""
+    from postcapture.config.reference import reference_markdown
+
+    print(reference_markdown(), end="")
     return 0

@@ -8,8 +8,9 @@
   pipe or a log file too.
 - Otherwise nothing is written: a script that reads stdout gets its JSON or table alone.
 
-The library reports through plain callbacks (``progress(fraction)``, ``progress(task, fraction)``,
-``progress(message)``); :class:`ProgressDisplay` turns them into bars and lines.
+The library reports through one callback signature, ``progress(task, fraction)`` (:mod:`postcapture.facade`);
+:class:`ProgressDisplay` turns it into bars and lines. With :meth:`ProgressDisplay.expect` an overall line
+shows how many tasks are done, running and queued, and the time remaining for all of them.
 """
 
 from __future__ import annotations
@@ -80,6 +81,10 @@ class ProgressDisplay:
         self._stop = threading.Event()
         self._ticker = None
         self._redirect = None
+        self.expected: list[str] = []
+        self._overall_bar = None
+        self._overall_decile = 0
+        self._overall_start = time.perf_counter()
 
     # context -------------------------------------------------------------------------------------
     def __enter__(self) -> ProgressDisplay:
@@ -103,16 +108,55 @@ class ProgressDisplay:
                 if task.bar is not None:
                     task.bar.close()
                     task.bar = None
-            if self._phase_bar is not None:
-                self._phase_bar.close()
-                self._phase_bar = None
+            for name in ("_phase_bar", "_overall_bar"):
+                bar = getattr(self, name)
+                if bar is not None:
+                    bar.close()
+                    setattr(self, name, None)
+            if exc_type is not None and self.bars:
+                # interrupted or failed: the line the one-line message will go on starts clean, not over a bar
+                self.stream.write("\r\x1b[K")
+                self.stream.flush()
         if self._redirect is not None:
             self._redirect.__exit__(exc_type, exc, tb)
+
+    # the whole command -----------------------------------------------------------------------------
+    def expect(self, names) -> None:
+        """Declare the tasks to come: an overall line then shows how many are done, running and queued, and
+        the time remaining for all of them."""
+        with self._lock:
+            self.expected = list(dict.fromkeys(names))
+            if self.bars and self._overall_bar is None and len(self.expected) > 1:
+                self._overall_bar = self._new_bar("  all tasks", 1000)
+            self._update_overall()
+
+    def _update_overall(self) -> None:
+        if not self.expected:
+            return
+        fractions = [self.tasks[n].fraction if n in self.tasks else 0.0 for n in self.expected]
+        done = sum(f >= 1.0 for f in fractions)
+        running = sum(0.0 < f < 1.0 or (n in self.tasks and f < 1.0) for n, f in zip(self.expected, fractions))
+        queued = len(self.expected) - done - running
+        total = sum(fractions) / len(self.expected)
+        if self._overall_bar is not None and done == len(self.expected):
+            self._overall_bar.close()  # every task done: the line goes, as a task's bar does
+            self._overall_bar = None
+        elif self._overall_bar is not None:
+            self._overall_bar.set_description_str(f"  all {len(self.expected)}: {done} done, {running} running, "
+                                                  f"{queued} queued"[:38], refresh=False)
+            self._overall_bar.n = int(round(1000 * total))
+            self._overall_bar.refresh()
+        if self.verbose and int(10 * total) > self._overall_decile:
+            self._overall_decile = int(10 * total)
+            elapsed = time.perf_counter() - self._overall_start
+            left = elapsed * (1.0 - total) / total if total > 0 else float("nan")
+            logger.info("all tasks: %d %% after %s, about %s left (%d done, %d running, %d queued)",
+                        10 * self._overall_decile, _duration(elapsed), _duration(left), done, running, queued)
 
     def _tick(self) -> None:
         while not self._stop.wait(_TICK_S):
             with self._lock:
-                for bar in [self._phase_bar] + [t.bar for t in self.tasks.values()]:
+                for bar in [self._phase_bar, self._overall_bar] + [t.bar for t in self.tasks.values()]:
                     if bar is not None:
                         bar.refresh()
 
@@ -199,6 +243,7 @@ class ProgressDisplay:
                     task.bar.close()
                     task.bar = None
                 self.say(f"  {name:<18} done in {_duration(time.perf_counter() - task.start)}")
+            self._update_overall()
 
     def fraction_callback(self, name: str):
         """``progress(fraction)`` for a library call that reports one task."""

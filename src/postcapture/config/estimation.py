@@ -9,12 +9,14 @@ sensors, the target's nominal mass and the declared ``[uncertainty]`` (see
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, Seed, Vec3, problem
+from postcapture.config.types import MAX_MASS, Frequency, Frozen, Mass, Seed, problem, quantity, vector
+
+Probability = quantity("1", ge=0.0, lt=1.0)
 
 __all__ = ["StarTrackerSpec", "GyroSpec", "AccelerometerSpec", "JointSensorSpec", "SensorProfileSpec", "FilterTuning",
            "Estimation"]
@@ -23,39 +25,39 @@ __all__ = ["StarTrackerSpec", "GyroSpec", "AccelerometerSpec", "JointSensorSpec"
 class StarTrackerSpec(Frozen):
     """Overrides of a star tracker (rad, Hz)."""
 
-    sigma_cross: PositiveFloat | None = None
-    sigma_roll: PositiveFloat | None = None
-    rate: PositiveFloat | None = None
-    boresight_B: Vec3 | None = None
-    dropout_probability: NonNegativeFloat | None = Field(default=None, lt=1.0)
+    sigma_cross: quantity("rad", gt=0.0, le=1.0) | None = None
+    sigma_roll: quantity("rad", gt=0.0, le=1.0) | None = None
+    rate: Frequency | None = None
+    boresight_B: vector("1", 1.0e3) | None = None
+    dropout_probability: Probability | None = None
 
 
 class GyroSpec(Frozen):
     """Overrides of a gyroscope: angle random walk (rad/sqrt(s)), bias walk (rad/s^1.5), initial bias (rad/s)."""
 
-    sigma_v: NonNegativeFloat | None = None
-    sigma_u: NonNegativeFloat | None = None
-    rate: PositiveFloat | None = None
-    initial_bias_B: Vec3 | None = None
-    dropout_probability: NonNegativeFloat | None = Field(default=None, lt=1.0)
+    sigma_v: quantity("rad/s^0.5", ge=0.0, le=1.0) | None = None
+    sigma_u: quantity("rad/s^1.5", ge=0.0, le=1.0) | None = None
+    rate: Frequency | None = None
+    initial_bias_B: vector("rad/s", 0.01) | None = None
+    dropout_probability: Probability | None = None
 
 
 class AccelerometerSpec(Frozen):
     """Overrides of the accelerometer: white noise (m/s^2), bias (m/s^2), bias walk (m/s^2.5)."""
 
-    sigma: NonNegativeFloat | None = None
-    rate: PositiveFloat | None = None
-    bias_B: Vec3 | None = None
-    sigma_bias_walk: NonNegativeFloat | None = None
-    dropout_probability: NonNegativeFloat | None = Field(default=None, lt=1.0)
+    sigma: quantity("m/s^2", ge=0.0, le=10.0) | None = None
+    rate: Frequency | None = None
+    bias_B: vector("m/s^2", 1.0) | None = None
+    sigma_bias_walk: quantity("m/s^2.5", ge=0.0, le=1.0) | None = None
+    dropout_probability: Probability | None = None
 
 
 class JointSensorSpec(Frozen):
     """Overrides of the arm joint-acceleration sensors (rad/s^2)."""
 
-    sigma: NonNegativeFloat | None = None
-    rate: PositiveFloat | None = None
-    dropout_probability: NonNegativeFloat | None = Field(default=None, lt=1.0)
+    sigma: quantity("rad/s^2", ge=0.0, le=100.0) | None = None
+    rate: Frequency | None = None
+    dropout_probability: Probability | None = None
 
 
 class SensorProfileSpec(Frozen):
@@ -103,21 +105,21 @@ class FilterTuning(Frozen):
         error no parameter describes.
     """
 
-    star_tracker_sigma: PositiveFloat | None = None
-    attitude_process_sigma: NonNegativeFloat | None = None
-    attitude_initial_sigma: PositiveFloat | None = None
-    gyro_bias_initial_sigma: PositiveFloat | None = None
-    accelerometer_bias_initial_sigma: PositiveFloat | None = None
-    mass_accel_sigma: PositiveFloat | None = None
-    mass_joint_sigma: PositiveFloat | None = None
-    mass_process_variance: tuple[NonNegativeFloat, NonNegativeFloat] | None = None
-    mass_bounds: tuple[PositiveFloat, PositiveFloat] | None = None
-    sigmoid_c: PositiveFloat | None = None
-    gate_probability: float | None = Field(default=None, gt=0.0, lt=1.0)
-    model_process_variance: NonNegativeFloat | None = None
+    star_tracker_sigma: quantity("rad", gt=0.0, le=1.0) | None = None
+    attitude_process_sigma: quantity("rad", ge=0.0, le=1.0) | None = None
+    attitude_initial_sigma: quantity("rad", gt=0.0, le=1.0) | None = None
+    gyro_bias_initial_sigma: quantity("rad/s", gt=0.0, le=0.01) | None = None
+    accelerometer_bias_initial_sigma: quantity("m/s^2", gt=0.0, le=1.0) | None = None
+    mass_accel_sigma: quantity("m/s^2", gt=0.0, le=10.0) | None = None
+    mass_joint_sigma: quantity("rad/s^2", gt=0.0, le=100.0) | None = None
+    mass_process_variance: tuple[quantity("1", ge=0.0, le=1.0e6), quantity("1", ge=0.0, le=1.0e6)] | None = None
+    mass_bounds: tuple[Mass, Mass] | None = None
+    sigmoid_c: quantity("1/kg", gt=0.0, le=1.0e3) | None = None
+    gate_probability: quantity("1", gt=0.0, lt=1.0) | None = None
+    model_process_variance: quantity("(m/s)^2 or (rad/s)^2", ge=0.0, le=1.0e6) | None = None
     estimate: tuple[ParameterGroup, ...] | None = None
     consider: tuple[ParameterGroup, ...] | None = None
-    model_noise: NonNegativeFloat | None = None
+    model_noise: quantity("(m/s)^2 or (rad/s)^2", ge=0.0, le=1.0e6) | None = None
 
     @model_validator(mode="after")
     def _bounds(self):
@@ -139,10 +141,10 @@ class Estimation(Frozen):
     the filters' own settings; the truth's are ``[simulation]``'s.
     """
 
-    initial_mass_error: float = -100.0
-    filter_step: PositiveFloat = 0.1
+    initial_mass_error: quantity("kg", ge=-MAX_MASS, le=MAX_MASS) = -100.0
+    filter_step: quantity("s", gt=0.0, le=1.0e3) = 0.1
     integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
-    model_step: PositiveFloat = 0.05
+    model_step: quantity("s", gt=0.0, le=1.0e3) = 0.025
     seed: Seed = 0
     sensors: dict[str, SensorProfileSpec] = Field(default_factory=dict)
     tuning: dict[str, FilterTuning] = Field(default_factory=dict)

@@ -19,7 +19,10 @@ from typing import Annotated, Literal, Union
 import numpy as np
 from pydantic import Field, model_validator
 
-from postcapture.config.types import Frozen, NonNegativeFloat, PositiveFloat, problem
+from postcapture.config.types import Angle, Frequency, Frozen, Instant, quantity, problem
+
+Load = quantity("N or N m", ge=-1.0e6, le=1.0e6)
+"""A force (N) or a torque (N m), by channel."""
 
 __all__ = ["Step", "Sine", "Chirp", "Table", "Excitation", "CHASER_CHANNELS", "channel_index"]
 
@@ -45,11 +48,34 @@ def channel_index(channel: str, n_arm: int) -> int:
 
 class _Window(Frozen):
     """A profile on ``channel``, active on ``[start, stop)`` (``stop`` None: never stops), zero outside;
-    the left limit at a switch (``(start, stop]``) is what an integrator sees at the end of a step."""
+    the left limit at a switch (``(start, stop]``) is what an integrator sees at the end of a step.
 
-    channel: str
-    start: NonNegativeFloat = 0.0
-    stop: NonNegativeFloat | None = None
+    Attributes
+    ----------
+    channel : str
+        ``force_x|y|z`` (N, on the chaser at its centre of mass, B components), ``torque_x|y|z`` (N m, B
+        components) or ``joint_<k>`` (N m, the k-th arm joint's motor).
+    start, stop : float
+        The window (s); without ``stop`` the profile runs to the end.
+    amplitude : float
+        N or N m, by channel.
+    rise_time : float
+        A step's linear ramp up after ``start`` and down before ``stop`` (s).
+    frequency : float
+        A sine's frequency (Hz).
+    phase : float
+        Phase at ``start`` (rad).
+    offset : float
+        Added to a sine (N or N m).
+    f0, f1 : float
+        A chirp's frequencies at ``start`` and ``stop`` (Hz).
+    t, value : list of float
+        A table's times (s, increasing) and values (N or N m).
+    """
+
+    channel: str = Field(max_length=64)
+    start: Instant = 0.0
+    stop: Instant | None = None
 
     @model_validator(mode="after")
     def _window(self):
@@ -68,18 +94,18 @@ class Step(_Window):
     """
 
     kind: Literal["step"]
-    amplitude: float
-    rise_time: NonNegativeFloat = 0.0
+    amplitude: Load
+    rise_time: quantity("s", ge=0.0, le=1.0e6) = 0.0
 
 
 class Sine(_Window):
     """``offset + amplitude sin(2 pi frequency (t - start) + phase)`` on ``[start, stop)``."""
 
     kind: Literal["sine"]
-    amplitude: float
-    frequency: PositiveFloat
-    phase: float = 0.0
-    offset: float = 0.0
+    amplitude: Load
+    frequency: Frequency
+    phase: Angle = 0.0
+    offset: Load = 0.0
 
 
 class Chirp(_Window):
@@ -90,10 +116,10 @@ class Chirp(_Window):
     """
 
     kind: Literal["chirp"]
-    amplitude: float
-    f0: PositiveFloat
-    f1: PositiveFloat
-    phase: float = 0.0
+    amplitude: Load
+    f0: Frequency
+    f1: Frequency
+    phase: Angle = 0.0
 
     @model_validator(mode="after")
     def _needs_stop(self):
@@ -106,8 +132,8 @@ class Table(_Window):
     """Piecewise-linear table ``(t, value)``; constant extrapolation outside, zero outside the window."""
 
     kind: Literal["table"]
-    t: tuple[float, ...] = Field(min_length=2)
-    value: tuple[float, ...] = Field(min_length=2)
+    t: tuple[Instant, ...] = Field(min_length=2, max_length=100_000)
+    value: tuple[Load, ...] = Field(min_length=2, max_length=100_000)
 
     @model_validator(mode="after")
     def _table(self):

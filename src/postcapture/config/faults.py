@@ -17,14 +17,32 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field, model_validator
 
-from postcapture.config.types import Frozen, NonNegativeFloat, Vec3, problem
+from postcapture.config.types import Frozen, Instant, Vec3, problem
 
-__all__ = ["Outage", "BiasStep", "JointFault", "Fault", "FAULT_KINDS", "fault_window"]
+__all__ = ["Outage", "BiasStep", "JointFault", "Fault", "FAULT_KINDS", "STEP_LIMITS", "fault_window"]
+
+STEP_LIMITS = {"gyro_bias_step": (0.01, "rad/s"), "accelerometer_bias_step": (1.0, "m/s^2")}
+"""Largest bias step per axis: 0.01 rad/s is 2000 deg/h, 1 m/s^2 a tenth of a g; no sensor that jumps further
+is a sensor with a bias."""
 
 
 class _Window(Frozen):
-    start: NonNegativeFloat
-    stop: NonNegativeFloat | None = None
+    """A fault on a window of time.
+
+    Attributes
+    ----------
+    start, stop : float
+        The window ``[start, stop)`` (s); without ``stop`` the fault lasts to the end of the run.
+    time : float
+        When a bias step happens (s).
+    step : list of 3 float
+        A bias step, body axes (rad/s for the gyro, m/s^2 for the accelerometer).
+    joint : int
+        The arm joint (1-based) whose sensor fails.
+    """
+
+    start: Instant
+    stop: Instant | None = None
 
     @model_validator(mode="after")
     def _order(self):
@@ -40,18 +58,33 @@ class Outage(_Window):
 
 
 class BiasStep(Frozen):
-    """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``."""
+    """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``.
+
+    Attributes
+    ----------
+    time : float
+        When the bias jumps (s).
+    step : list of 3 float
+        The jump, body axes (rad/s for the gyro, m/s^2 for the accelerometer).
+    """
 
     kind: Literal["gyro_bias_step", "accelerometer_bias_step"]
-    time: NonNegativeFloat
-    step: Vec3
+    time: Instant
+    step: Vec3 = Field(json_schema_extra={"unit": "rad/s or m/s^2", "limit": "0.01 rad/s (gyro), 1 m/s^2 (accelerometer)"})
+
+    @model_validator(mode="after")
+    def _physical(self):
+        limit, unit = STEP_LIMITS[self.kind]
+        if max(abs(x) for x in self.step) > limit:
+            raise problem(f"a bias step of at most {limit:g} {unit} per axis", list(self.step), field="step")
+        return self
 
 
 class JointFault(_Window):
     """Joint ``joint`` (1-based) sensor stuck at its last value, or silent, on ``[start, stop)``."""
 
     kind: Literal["joint_stuck", "joint_dropout"]
-    joint: int = Field(ge=1)
+    joint: int = Field(ge=1, le=1000)
 
 
 Fault = Annotated[Union[Outage, BiasStep, JointFault], Field(discriminator="kind")]

@@ -17,16 +17,26 @@ from postcapture.config.excitation import Excitation, channel_index
 from postcapture.config.faults import Fault, JointFault, fault_window
 from postcapture.config.uncertainty import Uncertainty
 from postcapture.config.flexibility import refine_stiffness
+from postcapture.config.names import INTEGRATORS, MAX_SEGMENTS, PROFILES, VARIANTS
 from postcapture.config.types import (
+    Angle,
     AxisName,
+    Damping,
+    Duration,
     Frozen,
+    Mass,
     Mat3,
-    NonNegativeFloat,
+    Name,
     Pose,
-    PositiveFloat,
-    Vec3,
+    Position3,
+    Size,
+    Stiffness,
+    Text,
     check_inertia,
     problem,
+    problems,
+    quantity,
+    vector,
 )
 from postcapture.core.errors import Problem, ScenarioError
 from typing import Annotated
@@ -46,13 +56,14 @@ __all__ = [
     "MAX_SEGMENTS",
 ]
 
-INTEGRATORS = ("sdirk4", "sdirk3", "sdirk2", "rk4")
 ARCSEC = 4.84813681109536e-06  # rad
 VARIANTS = ("flexible", "stiff", "rigid")
 MAX_SEGMENTS = 1000
-MIN_SAMPLE_PERIOD = 1e-6  # s: shorter output periods are not a physical sensor's
 """Most segments a panel may be cut into (scenario files and :meth:`Panel.with_segments` alike)."""
-Inertia = Annotated[Mat3, check_inertia]
+MIN_SAMPLE_PERIOD = 1e-6  # s: shorter output periods are not a physical sensor's
+Inertia = Annotated[Mat3, check_inertia, Field(json_schema_extra={
+    "unit": "kg m^2", "bounds": "symmetric, positive definite, principal moments satisfying I1 + I2 >= I3, "
+                                "entries of magnitude at most 1e10"})]
 
 
 class Panel(Frozen):
@@ -61,17 +72,36 @@ class Panel(Frozen):
     ``bending_stiffness`` lists the N hinge stiffnesses from root to tip (N m/rad); for another
     number of segments use :meth:`with_segments`, which derives them from the piecewise-constant
     EI(s) they imply (see :mod:`postcapture.config.flexibility`).
+
+    Attributes
+    ----------
+    name : str
+        Unique among the spacecraft's panels; it names the panel's outputs (``tip_<name>``).
+    mount : Pose
+        The panel root frame P in the host body's frame (B for the chaser, T for the target).
+    length, width : float
+        Along x_P from root to tip, and across (m).
+    mass : float
+        The whole panel, spread evenly over its segments (kg).
+    segments : int
+        Rigid segments on bending hinges; the first hinge sits at the root.
+    bending_stiffness : list of float
+        One hinge stiffness per segment, root to tip (N m/rad); ``postcapture panel calibrate`` fits them.
+    torsion_stiffness : float
+        The root torsion hinge about x_P (N m/rad).
+    damping_beta : float
+        Stiffness-proportional damping, d = beta k on every hinge (s).
     """
 
-    name: str = Field(min_length=1)
+    name: Name
     mount: Pose = Pose()
-    length: PositiveFloat
-    width: PositiveFloat
-    mass: PositiveFloat
+    length: Size
+    width: Size
+    mass: Mass
     segments: int = Field(ge=1, le=MAX_SEGMENTS)
-    bending_stiffness: tuple[PositiveFloat, ...]
-    torsion_stiffness: PositiveFloat
-    damping_beta: NonNegativeFloat = 0.0  # stiffness-proportional damping d = beta k (s)
+    bending_stiffness: tuple[Stiffness, ...]
+    torsion_stiffness: Stiffness
+    damping_beta: quantity("s", ge=0.0, le=10.0) = 0.0  # stiffness-proportional damping d = beta k (s)
 
     @model_validator(mode="after")
     def _count(self):
@@ -98,7 +128,22 @@ class Panel(Frozen):
 
 
 class _Body(Frozen):
-    mass: PositiveFloat
+    """A spacecraft body.
+
+    Attributes
+    ----------
+    mass : float
+        Its mass (kg); with ``properties_include_panels``, the whole spacecraft's.
+    inertia : 3x3 list of float
+        About its centre of mass, in its body frame (kg m^2).
+    panels : list of Panel
+        Its flexible panels (``[[chaser.panels]]``, ``[[target.panels]]``).
+    properties_include_panels : bool
+        True when mass and inertia describe the whole spacecraft with its panels undeformed: the model
+        subtracts the panels to get the rigid hub.
+    """
+
+    mass: Mass
     inertia: Inertia
     panels: tuple[Panel, ...] = ()
     # True when mass, centre of mass and inertia describe the whole spacecraft with its panels
@@ -115,13 +160,25 @@ class _Body(Frozen):
 
 
 class Chaser(_Body):
-    """The chaser spacecraft; B is at its centre of mass (with panels if they are included)."""
+    """The chaser spacecraft; B is at its centre of mass (with panels if they are included).
 
-    accelerometer_position: Vec3 = (0.0, 0.0, 0.0)  # in B (m)
+    Attributes
+    ----------
+    accelerometer_position : list of 3 float
+        Where the accelerometer sits, in B (m).
+    """
+
+    accelerometer_position: Position3 = (0.0, 0.0, 0.0)  # in B (m)
 
 
 class Target(_Body):
-    """The captured target. ``grasp_to_com`` is the pose of T (origin at the CoM) in the grasp frame G."""
+    """The captured target. ``grasp_to_com`` is the pose of T (origin at the CoM) in the grasp frame G.
+
+    Attributes
+    ----------
+    grasp_to_com : Pose
+        T (origin at the target's centre of mass) in the arm's grasp frame G: ``xyz`` (m), ``rpy`` (rad).
+    """
 
     grasp_to_com: Pose = Pose()
 
@@ -135,23 +192,54 @@ class ArmJoint(Frozen):
     model: a motor rotor with that (reflected) inertia, held at ``rest_angle`` by a servo of stiffness
     ``servo_stiffness`` and damping ``servo_damping``, drives the link through the joint spring, and the
     motor torque input acts on the rotor.
+
+    Attributes
+    ----------
+    axis : {"x", "y", "z"}
+        The joint's axis in its own frame.
+    origin : Pose
+        The joint frame in the previous link's frame (the arm base for joint 1).
+    mass : float
+        The link's mass (kg).
+    com : list of 3 float
+        The link's centre of mass in the joint frame (m).
+    inertia : 3x3 list of float
+        The link's inertia about its centre of mass, joint-frame axes (kg m^2).
+    stiffness : float
+        The joint spring (N m/rad).
+    damping : float
+        The joint damper (N m s/rad).
+    rest_angle : float
+        The angle the spring pulls towards (rad).
+    rotor_inertia, servo_stiffness, servo_damping : float, optional
+        Spong's motor rotor (kg m^2, reflected) and its servo (N m/rad, N m s/rad).
     """
 
     axis: AxisName
     origin: Pose = Pose()
-    mass: PositiveFloat
-    com: Vec3 = (0.0, 0.0, 0.0)
+    mass: Mass
+    com: Position3 = (0.0, 0.0, 0.0)
     inertia: Inertia
-    stiffness: PositiveFloat
-    damping: NonNegativeFloat = 0.0
-    rest_angle: float = 0.0
-    rotor_inertia: PositiveFloat | None = None
-    servo_stiffness: PositiveFloat | None = None
-    servo_damping: NonNegativeFloat | None = None
+    stiffness: Stiffness
+    damping: Damping = 0.0
+    rest_angle: Angle = 0.0
+    rotor_inertia: quantity("kg m^2", gt=0.0, le=1.0e6) | None = None
+    servo_stiffness: Stiffness | None = None
+    servo_damping: Damping | None = None
 
 
 class Arm(Frozen):
-    """The manipulator: base pose in B, joints from base to tool, tool (grasp) frame in the last link."""
+    """The manipulator: base pose in B, joints from base to tool, tool (grasp) frame in the last link.
+
+    Attributes
+    ----------
+    base : Pose
+        The arm base in B.
+    joints : list of ArmJoint
+        ``[[arm.joints]]``, from base to tool.
+    tool : Pose
+        The grasp frame G in the last link's frame.
+    """
 
     base: Pose = Pose()
     joints: tuple[ArmJoint, ...] = Field(min_length=1)
@@ -163,11 +251,22 @@ class InitialState(Frozen):
 
     ``elastic = "relaxed"`` starts the joints at the deflection where the elastic coordinates have no
     acceleration at the initial rates (no start-up transient); ``"undeformed"`` at their rest angles.
+
+    Attributes
+    ----------
+    q_BN : list of 4 float
+        Attitude of B relative to N, scalar first (w, x, y, z), unit norm.
+    omega_BN_B : list of 3 float
+        Angular velocity of the stack, B components (rad/s).
+    com_velocity_N : list of 3 float
+        Velocity of the stack's centre of mass, N components (m/s).
+    elastic : {"relaxed", "undeformed"}
+        Where the elastic joints start.
     """
 
     q_BN: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
-    omega_BN_B: Vec3 = (0.0, 0.0, 0.0)  # rad/s
-    com_velocity_N: Vec3 = (0.0, 0.0, 0.0)  # m/s
+    omega_BN_B: vector("rad/s", 10.0) = (0.0, 0.0, 0.0)  # rad/s
+    com_velocity_N: vector("m/s", 1.0e4) = (0.0, 0.0, 0.0)  # m/s
     elastic: Literal["relaxed", "undeformed"] = "relaxed"
 
     @field_validator("q_BN")
@@ -190,15 +289,30 @@ class Simulation(Frozen):
     encoders read). An explicit ``step`` runs the truth at that step instead (the tolerances are then
     not used). The filters' process model has settings of its own (``[estimation] integrator`` and
     ``model_step``): nothing here changes the filters.
+
+    Attributes
+    ----------
+    duration : float
+        Simulated time (s).
+    integrator : str
+        The truth's integrator.
+    step : float, optional
+        The truth's step (s), which ``sample_period`` must be a whole multiple of; none (the default):
+        chosen from the tolerances.
+    sample_period : float
+        Output and sensor sample period (s).
+    tolerance, rate_tolerance, joint_tolerance : float
+        Accuracy of the truth over the run on the attitude (rad), on the body rate averaged over each
+        sample period (rad/s) and on the joint angles (rad); see above.
     """
 
-    duration: PositiveFloat = 100.0
-    integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
-    step: PositiveFloat | None = None
-    sample_period: PositiveFloat = 0.1
-    tolerance: PositiveFloat = 4.85e-6
-    rate_tolerance: PositiveFloat = 5.0e-7
-    joint_tolerance: PositiveFloat = 1.0e-6
+    duration: Duration = 100.0
+    integrator: Literal[INTEGRATORS] = "sdirk4"
+    step: quantity("s", gt=0.0, le=1.0e3) | None = None
+    sample_period: quantity("s", gt=0.0, le=1.0e3) = 0.1
+    tolerance: quantity("rad", gt=0.0, le=1.0) = 4.85e-6
+    rate_tolerance: quantity("rad/s", gt=0.0, le=1.0) = 5.0e-7
+    joint_tolerance: quantity("rad", gt=0.0, le=1.0) = 1.0e-6
 
     @model_validator(mode="after")
     def _grid(self):
@@ -226,10 +340,36 @@ def fault_problems(faults, duration: float) -> list[tuple[str, str, str]]:
 
 
 class Scenario(Frozen):
-    """A complete post-capture scenario."""
+    """A complete post-capture scenario.
 
-    name: str = Field(min_length=1)
-    description: str = ""
+    Attributes
+    ----------
+    name : str
+        Names the scenario in titles and file names.
+    description : str
+        Free text.
+    chaser : Chaser
+        ``[chaser]``.
+    arm : Arm, optional
+        ``[arm]``; required with a target.
+    target : Target, optional
+        ``[target]``.
+    excitation : list
+        ``[[excitation]]``: known inputs (thrusters, joint torques) by ``kind``.
+    initial : InitialState
+        ``[initial]``.
+    simulation : Simulation
+        ``[simulation]``.
+    estimation : Estimation
+        ``[estimation]``: the filters' settings, sensor overrides and tunings per profile.
+    uncertainty : Uncertainty
+        ``[uncertainty]``: what the filters do not know (priors).
+    faults : list
+        ``[[faults]]``: scheduled sensor faults by ``kind``.
+    """
+
+    name: Name
+    description: Text = ""
     chaser: Chaser
     arm: Arm | None = None
     target: Target | None = None
@@ -242,32 +382,39 @@ class Scenario(Frozen):
 
     @model_validator(mode="after")
     def _consistency(self):
+        found = []  # (path, expected, found): every cross-section problem, reported together
         if self.target is not None and self.arm is None:
-            raise problem("an arm to hold the target", "a target without an arm")
+            found.append(("target", "an arm to hold the target", "a target without an arm"))
         n_arm = len(self.arm.joints) if self.arm is not None else 0
         for section in ("sensors", "tuning"):
-            unknown = sorted(set(getattr(self.estimation, section)) - {"reference", "realistic"})
+            unknown = sorted(set(getattr(self.estimation, section)) - set(PROFILES))
             if unknown:
-                raise problem("profiles among reference, realistic", unknown, f"estimation.{section}")
+                found.append((f"estimation.{section}", f"profiles among {', '.join(PROFILES)}", unknown))
         for i, fault in enumerate(self.faults):
             if isinstance(fault, JointFault) and fault.joint > n_arm:
-                raise problem(f"a joint among the arm's joints 1..{n_arm}", fault.joint, f"faults[{i}].joint")
-        problems = fault_problems(self.faults, self.simulation.duration)
-        if problems:
-            raise problem(problems[0][1], problems[0][2], problems[0][0])
+                found.append((f"faults[{i}].joint", f"a joint among the arm's joints 1..{n_arm}", fault.joint))
+        found += fault_problems(self.faults, self.simulation.duration)
         unc = self.uncertainty
         if unc.target_mass is not None and self.target is not None:
             lowest = self.target.mass + unc.target_mass.extremes()[0]
             panels = sum(p.mass for p in self.target.panels)
             if lowest <= panels:
-                raise problem(f"draws that keep the target heavier than its panels ({panels:g} kg)",
-                              f"draws down to {lowest:g} kg", "uncertainty.target_mass")
+                found.append(("uncertainty.target_mass", f"draws that keep the target heavier than its panels "
+                                                         f"({panels:g} kg)", f"draws down to {lowest:g} kg"))
         for i, ex in enumerate(self.excitation):
             try:
                 channel_index(ex.channel, n_arm)
             except ValueError:
-                raise problem(f"excitation[{i}].channel on an existing input (arm has {n_arm} joints)", ex.channel)
+                found.append((f"excitation[{i}].channel", f"a channel on an existing input (the arm has {n_arm} "
+                                                          "joints)", repr(ex.channel)))
+        if found:
+            raise problems(found)
         return self
+
+    def __repr__(self) -> str:
+        target = f"target {self.target.mass:g} kg" if self.target is not None else "no target"
+        return (f"Scenario({self.name!r}: chaser {self.chaser.mass:g} kg, {self.n_arm} arm joints, {target}, "
+                f"{len(self.panels())} panels, {self.simulation.duration:g} s)")
 
     @property
     def n_arm(self) -> int:

@@ -19,6 +19,21 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validat
 from pydantic_core import PydanticCustomError
 
 __all__ = [
+    "quantity",
+    "vector",
+    "Name",
+    "Text",
+    "Mass",
+    "Length",
+    "Size",
+    "Angle",
+    "Stiffness",
+    "Damping",
+    "Duration",
+    "Instant",
+    "Frequency",
+    "Position3",
+    "Angles3",
     "Frozen",
     "SEED_LIMIT",
     "Seed",
@@ -29,21 +44,34 @@ __all__ = [
     "Pose",
     "AxisName",
     "problem",
+    "problems",
     "check_inertia",
     "rpy_matrix",
 ]
 
 
-def problem(expected: str, found: object, path: str | None = None) -> PydanticCustomError:
+def problem(expected: str, found: object, path: str | None = None, *, field: str | None = None) -> PydanticCustomError:
     """A validation error whose message reads ``expected ..., found ...``.
 
-    ``path`` names the field when a check on a whole section is about one of its fields (for example
-    ``faults[0].stop``); the loader reports it instead of the section's own path.
+    ``path`` names the field when a check on a whole scenario is about one of its fields (for example
+    ``faults[0].stop``); the loader reports it instead of the scenario's own path. ``field`` names a field of
+    the section being validated: the loader appends it to the section's path (``faults[2].step``).
     """
     ctx = {"expected": expected, "found": str(found)}
     if path is not None:
         ctx["path"] = path
+    if field is not None:
+        ctx["field"] = field
     return PydanticCustomError("scenario", "expected {expected}, found {found}", ctx)
+
+
+def problems(found: list[tuple[str, str, object]]) -> PydanticCustomError:
+    """Several problems of one check, each ``(path, expected, found)``: the loader reports every one of them."""
+    if len(found) == 1:
+        path, expected, value = found[0]
+        return problem(expected, value, path)
+    listed = [{"path": p, "expected": e, "found": str(f)} for p, e, f in found]
+    return PydanticCustomError("scenario_many", "{count} problems", {"count": len(listed), "problems": listed})
 
 
 _MAX_ARRAY_DEPTH = 8  # deeper arrays than any field has are left as lists: the type check reports them
@@ -91,11 +119,61 @@ Mat3 = tuple[Vec3, Vec3, Vec3]
 AxisName = Literal["x", "y", "z"]
 
 
+# ------------------------------------------------------------------------------------------ quantities
+def quantity(unit: str, *, gt: float | None = None, ge: float | None = None, lt: float | None = None,
+             le: float | None = None):
+    """A real number in SI units with its physical bounds, declared once where the field is declared.
+
+    The bounds are what a body, a spring or a sensor of this project can physically be, wide enough for
+    any spacecraft and narrow enough that nothing within them overflows later. The unit and the bounds
+    are read back by the field reference (:mod:`postcapture.config.reference`).
+
+    Examples
+    --------
+    >>> from pydantic import TypeAdapter
+    >>> TypeAdapter(quantity("kg", gt=0, le=1e7)).validate_python(5.0)
+    5.0
+    """
+    return Annotated[float, Field(gt=gt, ge=ge, lt=lt, le=le, allow_inf_nan=False, json_schema_extra={"unit": unit})]
+
+
+def vector(unit: str, limit: float):
+    """Three components in SI units, each of magnitude at most ``limit``."""
+    c = quantity(unit, ge=-limit, le=limit)
+    return Annotated[tuple[c, c, c], Field(json_schema_extra={"unit": unit})]
+
+
+NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_.-]{0,63}$"
+Name = Annotated[str, Field(pattern=NAME_PATTERN, json_schema_extra={"unit": "name"})]
+"""A name that becomes part of variable, dimension and file names: an ASCII letter, then up to 63 ASCII letters,
+digits, ``_``, ``.`` or ``-`` (no spaces, control or combining characters)."""
+Text = Annotated[str, Field(max_length=4000, pattern=r"^[^\x00-\x08\x0b-\x1f\x7f]*$")]
+"""Free text (a description): no control characters but tab and newline, at most 4000 characters."""
+
+MAX_MASS = 1.0e7  # kg: ten times the largest spacecraft yet built
+MAX_LENGTH = 1.0e3  # m: positions and sizes of parts of one spacecraft stack
+MAX_TIME = 1.0e6  # s: eleven and a half days of simulated time
+Mass = quantity("kg", gt=0.0, le=MAX_MASS)
+Length = quantity("m", ge=-MAX_LENGTH, le=MAX_LENGTH)
+Size = quantity("m", gt=0.0, le=MAX_LENGTH)
+Angle = quantity("rad", ge=-6.283185307179586, le=6.283185307179586)
+Stiffness = quantity("N m/rad", gt=0.0, le=1.0e12)
+Damping = quantity("N m s/rad", ge=0.0, le=1.0e12)
+Duration = quantity("s", gt=0.0, le=MAX_TIME)
+Instant = quantity("s", ge=0.0, le=MAX_TIME)
+Frequency = quantity("Hz", gt=0.0, le=1.0e4)
+Position3 = vector("m", MAX_LENGTH)
+Angles3 = vector("rad", 6.283185307179586)
+
+
+MAX_INERTIA = 1.0e10  # kg m^2: a 1e7 kg body 30 m in radius
+
+
 def _check_inertia(value: Mat3) -> Mat3:
     I = np.array(value, dtype=float)
     scale = float(np.abs(I).max())
-    if not scale < 1e150:  # beyond it the eigenvalues overflow; no body is that heavy
-        raise problem("inertia entries below 1e150 kg m^2", f"an entry of {scale:.6g}")
+    if not scale <= MAX_INERTIA:  # no body of a spacecraft stack is that large
+        raise problem(f"inertia entries of magnitude at most {MAX_INERTIA:g} kg m^2", f"an entry of {scale:.6g}")
     if not np.allclose(I, I.T, rtol=1e-9, atol=1e-9 * max(1.0, scale)):
         raise problem("a symmetric 3x3 inertia tensor", f"I - I^T with max |entry| {np.abs(I - I.T).max():.3g}")
     eig = np.linalg.eigvalsh(I)
@@ -132,10 +210,17 @@ class Pose(Frozen):
 
     ``xyz`` is the child origin in parent components (m); ``rpy`` are roll-pitch-yaw angles (rad) with
     ``R_parent_child = Rz(yaw) Ry(pitch) Rx(roll)``.
+
+    Attributes
+    ----------
+    xyz : list of 3 float
+        The child frame's origin in the parent frame (m).
+    rpy : list of 3 float
+        Roll, pitch, yaw (rad): ``R_parent_child = Rz(yaw) Ry(pitch) Rx(roll)``.
     """
 
-    xyz: Vec3 = (0.0, 0.0, 0.0)
-    rpy: Vec3 = (0.0, 0.0, 0.0)
+    xyz: Position3 = (0.0, 0.0, 0.0)
+    rpy: Angles3 = (0.0, 0.0, 0.0)
 
     def rotation(self) -> np.ndarray:
         """Rotation matrix mapping child components to parent components."""

@@ -23,14 +23,16 @@ nominal count): the discretisation is a model error no parameter can absorb.
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from postcapture.config.types import Frozen, PositiveFloat, problem
+from postcapture.config.types import MAX_MASS, Frozen, problem, problems
 
-__all__ = ["Prior", "Uncertainty", "OFFSET_PRIORS", "FACTOR_PRIORS"]
+__all__ = ["Prior", "Uncertainty", "OFFSET_PRIORS", "FACTOR_PRIORS", "prior_field"]
+
+_MAX_VALUE = 1.0e12  # no prior parameter of this project comes near it; each prior's own bound is tighter
 
 OFFSET_PRIORS = ("target_mass", "target_com", "target_inertia_axes", "gyro_bias", "accelerometer_bias",
                  "gyro_scale_factor", "gyro_misalignment")
@@ -43,13 +45,24 @@ class Prior(Frozen):
 
     For an offset, a normal is centred on 0 and ``low``/``high`` are offsets; for a factor, a normal is
     ``1 + sigma n`` and ``low``/``high`` are factors.
+
+    Attributes
+    ----------
+    kind : {"normal", "uniform", "loguniform"}
+        The distribution.
+    sigma : float
+        A normal prior's standard deviation, in the prior's unit.
+    truncate : float
+        A normal prior is cut at this many sigmas (draws beyond are drawn again).
+    low, high : float
+        A uniform or log-uniform prior's range, in the prior's unit.
     """
 
     kind: Literal["normal", "uniform", "loguniform"] = "normal"
-    sigma: PositiveFloat | None = None
-    truncate: PositiveFloat = 3.0
-    low: float | None = Field(default=None, allow_inf_nan=False)
-    high: float | None = Field(default=None, allow_inf_nan=False)
+    sigma: Annotated[float, Field(gt=0.0, le=_MAX_VALUE)] | None = None
+    truncate: Annotated[float, Field(ge=0.5, le=10.0)] = 3.0  # draws beyond it are drawn again: a few rounds
+    low: Annotated[float, Field(ge=-_MAX_VALUE, le=_MAX_VALUE)] | None = None
+    high: Annotated[float, Field(ge=-_MAX_VALUE, le=_MAX_VALUE)] | None = None
 
     @model_validator(mode="after")
     def _fields(self):
@@ -109,31 +122,81 @@ class Prior(Frozen):
         return math.sqrt(max(second - 2.0 * nominal * mean + nominal * nominal, 0.0))
 
 
-class Uncertainty(Frozen):
-    """Declared uncertainty of the nominal model (see the module docstring); None means exactly known."""
+def prior_field(unit: str, role: str, limit: float):
+    """A prior of the ``[uncertainty]`` section, declared once with its unit and physical bound.
 
-    target_mass: Prior | None = None
-    target_com: Prior | None = None
-    target_inertia_moments: Prior | None = None
-    target_inertia_axes: Prior | None = None
-    panel_bending: Prior | None = None
-    panel_torsion: Prior | None = None
-    panel_damping: Prior | None = None
-    arm_stiffness: Prior | None = None
-    arm_damping: Prior | None = None
-    gyro_bias: Prior | None = None
-    accelerometer_bias: Prior | None = None
-    gyro_scale_factor: Prior | None = None
-    gyro_misalignment: Prior | None = None
+    ``role`` is ``"offset"`` (draws are added to the nominal value; every draw's magnitude must stay at most
+    ``limit``) or ``"factor"`` (draws multiply it; they must stay in ``(0, limit]``). The bound is checked
+    when the scenario is loaded and listed in the field reference.
+    """
+    return Field(default=None, json_schema_extra={"unit": unit, "role": role, "limit": limit})
+
+
+class Uncertainty(Frozen):
+    """Declared uncertainty of the nominal model (see the module docstring); None means exactly known.
+
+    Attributes
+    ----------
+    target_mass : Prior
+        Offset on the target's mass (kg).
+    target_com : Prior
+        Offset on each axis of the target's centre of mass, in T (m).
+    target_inertia_moments : Prior
+        Factor on each principal moment of the target.
+    target_inertia_axes : Prior
+        Small rotation of the target's principal axes about each axis of T (rad).
+    panel_bending, panel_torsion, panel_damping : Prior
+        Factors on each panel's hinge springs and dampers (each panel drawn on its own).
+    arm_stiffness, arm_damping : Prior
+        One factor on every arm joint's spring or damper.
+    gyro_bias : Prior
+        The gyro's turn-on bias per axis (rad/s).
+    accelerometer_bias : Prior
+        The accelerometer's bias per axis (m/s^2).
+    gyro_scale_factor : Prior
+        The gyro's scale-factor error per axis (relative).
+    gyro_misalignment : Prior
+        The gyro's misalignment, each of its six off-axis terms (rad).
+    truth_panel_segments : int
+        The truth's panels are cut into this many segments (the filters keep the scenario's).
+    """
+
+    target_mass: Prior | None = prior_field("kg", "offset", MAX_MASS)
+    target_com: Prior | None = prior_field("m", "offset", 10.0)
+    target_inertia_moments: Prior | None = prior_field("1", "factor", 10.0)
+    target_inertia_axes: Prior | None = prior_field("rad", "offset", 0.5)
+    panel_bending: Prior | None = prior_field("1", "factor", 10.0)
+    panel_torsion: Prior | None = prior_field("1", "factor", 10.0)
+    panel_damping: Prior | None = prior_field("1", "factor", 100.0)
+    arm_stiffness: Prior | None = prior_field("1", "factor", 10.0)
+    arm_damping: Prior | None = prior_field("1", "factor", 100.0)
+    gyro_bias: Prior | None = prior_field("rad/s", "offset", 0.01)
+    accelerometer_bias: Prior | None = prior_field("m/s^2", "offset", 1.0)
+    gyro_scale_factor: Prior | None = prior_field("1", "offset", 0.01)
+    gyro_misalignment: Prior | None = prior_field("rad", "offset", 0.01)
     truth_panel_segments: int | None = Field(default=None, ge=1, le=1000)
 
     @model_validator(mode="after")
-    def _factors_stay_positive(self):
-        for name in FACTOR_PRIORS:
-            prior = getattr(self, name)
-            if prior is not None and prior.extremes(factor=True)[0] <= 0.0:
-                raise problem("draws of a factor that stay > 0 (lower the sigma or the truncation)",
-                              f"draws down to {prior.extremes(factor=True)[0]:.3g}", f"uncertainty.{name}")
+    def _within_physical_bounds(self):
+        found = []
+        for name, info in type(self).model_fields.items():
+            prior, extra = getattr(self, name), info.json_schema_extra or {}
+            if not isinstance(prior, Prior) or "role" not in extra:
+                continue
+            factor = extra["role"] == "factor"
+            lo, hi = prior.extremes(factor=factor)
+            unit = "" if extra["unit"] == "1" else f" {extra['unit']}"
+            if factor and lo <= 0.0:
+                found.append((f"uncertainty.{name}", "draws of a factor that stay > 0 (lower the sigma or the "
+                                                     "truncation)", f"draws down to {lo:.3g}"))
+            elif factor and hi > extra["limit"]:
+                found.append((f"uncertainty.{name}", f"draws of a factor of at most {extra['limit']:g}",
+                              f"draws up to {hi:.3g}"))
+            elif not factor and max(abs(lo), abs(hi)) > extra["limit"]:
+                found.append((f"uncertainty.{name}", f"draws within +-{extra['limit']:g}{unit} of the nominal value",
+                              f"draws up to {max(abs(lo), abs(hi)):.3g}{unit}"))
+        if found:
+            raise problems(found)
         return self
 
     def factor(self, name: str, nominal: float = 1.0) -> float:

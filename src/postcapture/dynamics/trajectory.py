@@ -153,10 +153,34 @@ class Trajectory:
         """Same as :meth:`to_dataset`."""
         return self.to_dataset()
 
-    def to_netcdf(self, path: str | Path) -> Path:
-        """Write the trajectory as NetCDF-4 (via xarray), atomically."""
+    def to_pandas(self):
+        """Every output, input channel and state coordinate as a :class:`pandas.DataFrame`, one row per sample.
+
+        Columns are ``name`` for a scalar series and ``name[component]`` for a vector's component (``q_BN[w]``,
+        ``omega_BN_B[x]``, ``state_joint_angle[arm_joint_1]``); the index is ``time`` (s). Units are in
+        :meth:`to_xarray`'s attributes.
+        """
+        import pandas as pd
+
         ds = self.to_dataset()
-        return write_atomic(path, lambda tmp: ds.to_netcdf(tmp, engine="netcdf4"))
+        columns = {}
+        for name, var in ds.data_vars.items():
+            if var.dims == ("time",):
+                columns[name] = var.values
+            else:
+                labels = ds[var.dims[0]].values
+                for k, label in enumerate(labels):
+                    columns[f"{name}[{label}]"] = var.values[k]
+        return pd.DataFrame(columns, index=pd.Index(self.t, name="time"))
+
+    def to_netcdf(self, path: str | Path, *, provenance: dict | None = None) -> Path:
+        """Write the trajectory as a CF-1.10 NetCDF-4 file (:mod:`postcapture.io.netcdf`), atomically, with its
+        provenance (:func:`postcapture.io.provenance.provenance`, made here when not given)."""
+        from postcapture.io.netcdf import cf_dataset, netcdf_writer
+        from postcapture.io.provenance import provenance as made_by
+
+        ds = cf_dataset(self.to_dataset(), provenance=provenance if provenance is not None else made_by())
+        return write_atomic(path, netcdf_writer(ds))
 
 
 def _attrs(unit: str, long_name: str) -> dict:

@@ -53,11 +53,17 @@ import difflib
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated, Literal
 
+from pydantic import Field
+
+from postcapture.config.names import INTEGRATORS
+from postcapture.config.types import Frozen, quantity
 from postcapture.core.errors import FMIError
 from postcapture.fmi.kinematics import layout_problems
 
-__all__ = ["KINEMATICS", "JacobianOutputs", "Mapping", "load_mapping", "check_mapping", "mapping_sidecar"]
+__all__ = ["KINEMATICS", "JacobianOutputs", "Mapping", "MappingFile", "load_mapping", "check_mapping",
+           "mapping_sidecar"]
 
 KINEMATICS = ("free_flyer", "quaternion")
 
@@ -100,16 +106,22 @@ def _pattern_problems(jac: JacobianOutputs) -> list[str]:
     return problems
 
 
+def _duplicates(names) -> list[str]:
+    """The names that occur more than once, in order of their second occurrence."""
+    seen, dup = set(), []
+    for n in names:
+        if n in seen and n not in dup:
+            dup.append(n)
+        seen.add(n)
+    return dup
+
+
 def _overlap_problems(state, corr, reset, attitude, rate, accel, joint, mass) -> list[str]:
     """A variable may play one role only (the attitude and rates are state entries by design)."""
     problems = []
     for key, names in (("[state] variables", state), ("[correction] inputs", corr), ("[state] attitude", attitude),
                        ("[state] rate", rate), ("[measurement] accel", accel), ("[measurement] joint_accel", joint)):
-        seen, dup = set(), []
-        for n in names or ():
-            if n in seen and n not in dup:
-                dup.append(n)
-            seen.add(n)
+        dup = _duplicates(names or ())
         if dup:
             problems.append(f"{key}: {', '.join(repr(d) for d in dup)} listed more than once")
     shared = sorted(set(attitude or ()) & set(rate or ()))
@@ -125,6 +137,110 @@ def _overlap_problems(state, corr, reset, attitude, rate, accel, joint, mass) ->
             if both:
                 problems.append(f"{keys[b]}: {', '.join(repr(n) for n in both)} also in {keys[a]}: "
                                 "a variable plays one role only")
+    return problems
+
+
+# ------------------------------------------------------------------------------------------ the file's schema
+VarName = Annotated[str, Field(min_length=1, max_length=512, pattern=r"^[^\x00-\x1f\x7f]+$")]
+"""An FMI variable name: any printable text (FMI allows brackets, dots and spaces), at most 512 characters."""
+_GUID = r"^\{?[0-9A-Fa-f]{8}-[0-9A-Fa-f]{4}-[0-9A-Fa-f]{4}-[0-9A-Fa-f]{4}-[0-9A-Fa-f]{12}\}?$"
+
+
+def _names(n: int):
+    return Annotated[tuple[VarName, ...], Field(min_length=n, max_length=n)]
+
+
+class _StateSection(Frozen):
+    variables: tuple[VarName, ...] = Field(min_length=1, max_length=100_000)
+    kinematics: Literal[KINEMATICS]
+    attitude: _names(4)
+    rate: _names(3)
+
+
+class _CorrectionSection(Frozen):
+    inputs: tuple[VarName, ...] = Field(max_length=100_000)
+    reset: VarName
+
+
+class _MeasurementSection(Frozen):
+    accel: _names(3)
+    joint_accel: tuple[VarName, ...] = Field(default=(), max_length=1000)
+
+
+class _ParametersSection(Frozen):
+    mass: VarName | None = None
+
+
+class _JacobianSection(Frozen):
+    request: VarName
+    F: VarName
+    g: VarName
+    H: VarName
+    h: VarName
+
+
+class _FmuSection(Frozen):
+    """What the exporter recorded about the FMU (informative; checked so that nothing odd passes)."""
+
+    model_identifier: Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]{0,127}$")] | None = None
+    guid: Annotated[str, Field(pattern=_GUID)] | None = None
+    integrator: Literal[INTEGRATORS] | None = None
+    step: quantity("s", gt=0.0, le=1.0e4) | None = None
+
+
+class MappingFile(Frozen):
+    """The mapping TOML file (see the module docstring), validated like a scenario."""
+
+    format: Literal[1] = 1
+    fmu: _FmuSection = _FmuSection()
+    state: _StateSection
+    correction: _CorrectionSection
+    measurement: _MeasurementSection
+    parameters: _ParametersSection = _ParametersSection()
+    jacobians: _JacobianSection | None = None
+
+
+def _mapping_path(problem) -> str:
+    """``state.kinematics`` -> ``[state] kinematics``, as the file spells it."""
+    section, _, rest = problem.path.partition(".")
+    if section == "(scenario)":
+        return "(mapping)"
+    return f"[{section}] {rest}" if rest else (section if section in ("format",) else f"[{section}]")
+
+
+def _validated(data, source: str) -> MappingFile:
+    from pydantic import ValidationError
+
+    from postcapture.config.loader import problems_from_validation
+
+    if not isinstance(data, dict):
+        raise FMIError(f"invalid mapping: expected a table of sections, found {type(data).__name__}", fmu=source,
+                       function="mapping")
+    try:
+        return MappingFile.model_validate(data)
+    except ValidationError as exc:
+        problems = [f"{_mapping_path(p)}: expected {p.expected}, found {p.found}"
+                    for p in problems_from_validation(exc, model=MappingFile)]
+    except (RecursionError, ArithmeticError) as exc:
+        problems = [f"(mapping): expected tables a few levels deep, found {type(exc).__name__}"]
+    raise FMIError("invalid mapping:\n  - " + "\n  - ".join(problems), fmu=source, function="mapping")
+
+
+def _relation_problems(file: MappingFile) -> list[str]:
+    """What the schema cannot see: entries against each other."""
+    st, corr = file.state, file.correction
+    problems = _pattern_problems(file.jacobians) if file.jacobians is not None else []
+    if len(st.variables) != len(corr.inputs):
+        problems.append(f"[correction] inputs: expected {len(st.variables)} names (one per state entry), "
+                        f"found {len(corr.inputs)}")
+    problems += _overlap_problems(st.variables, corr.inputs, corr.reset, st.attitude, st.rate, file.measurement.accel,
+                                  file.measurement.joint_accel, file.parameters.mass)
+    for key, names in (("attitude", st.attitude), ("rate", st.rate)):
+        problems += [f"[state] {key}: {nm!r} is not one of state.variables" for nm in names if nm not in st.variables]
+    if not problems:
+        idx = {n: i for i, n in enumerate(st.variables)}
+        problems += [f"[state] {p}" for p in layout_problems(st.kinematics, len(st.variables),
+                                                             [idx[n] for n in st.attitude], [idx[n] for n in st.rate])]
     return problems
 
 
@@ -177,89 +293,26 @@ class Mapping:
     # ------------------------------------------------------------------ files
     @classmethod
     def from_dict(cls, data: dict, source: str = "") -> Mapping:
-        """Build from parsed TOML; every missing or malformed entry is reported at once."""
-        problems = []
+        """Build from parsed TOML; every missing or malformed entry is reported at once.
 
-        def get(section, key, kind, n=None, required=True):
-            sec = data.get(section, {})
-            if not isinstance(sec, dict):
-                problems.append(f"[{section}] must be a table")
-                return None
-            val = sec.get(key)
-            if val is None:
-                if required:
-                    problems.append(f"[{section}] {key}: missing")
-                return None
-            if kind is str and not isinstance(val, str):
-                problems.append(f"[{section}] {key}: expected a variable name, found {val!r}")
-                return None
-            if kind is list:
-                if not isinstance(val, list) or not all(isinstance(s, str) for s in val):
-                    problems.append(f"[{section}] {key}: expected a list of variable names")
-                    return None
-                if n is not None and len(val) != n:
-                    problems.append(f"[{section}] {key}: expected {n} names, found {len(val)}")
-                    return None
-                return tuple(val)
-            return val
+        The file is validated as a scenario is (:class:`MappingFile`: strict types, unknown keys and sections
+        with "did you mean", the ``[fmu]`` values bounded), then its entries against each other (no variable
+        in two roles, Jacobian name patterns, the layout of the kinematics).
 
-        known = {"format": None, "fmu": None, "state": {"variables", "kinematics", "attitude", "rate"},
-                 "correction": {"inputs", "reset"}, "measurement": {"accel", "joint_accel"}, "parameters": {"mass"},
-                 "jacobians": {"request", "F", "g", "H", "h"}}
-        for section, value in data.items():
-            if section not in known:
-                problems.append(f"[{section}]: not a mapping section (expected {', '.join(known)})")
-            elif known[section] is not None and isinstance(value, dict):
-                problems += [f"[{section}] {k}: not a key of this section (expected {', '.join(sorted(known[section]))})"
-                             for k in value if k not in known[section]]
-        state = get("state", "variables", list)
-        kin = get("state", "kinematics", str)
-        attitude = get("state", "attitude", list, 4)
-        rate = get("state", "rate", list, 3)
-        corr = get("correction", "inputs", list)
-        reset = get("correction", "reset", str)
-        accel = get("measurement", "accel", list, 3)
-        joint = get("measurement", "joint_accel", list) or ()
-        mass = get("parameters", "mass", str, required=False)
-        jac = None
-        if "jacobians" in data:
-            parts = [get("jacobians", k, str) for k in ("request", "F", "g", "H", "h")]
-            if all(p is not None for p in parts):
-                jac = JacobianOutputs(*parts)
-        if jac is not None:
-            problems += _pattern_problems(jac)
-        if kin is not None and kin not in KINEMATICS:
-            problems.append(f"[state] kinematics: expected one of {', '.join(KINEMATICS)}, found {kin!r}")
-        if state is not None and corr is not None and len(state) != len(corr):
-            problems.append(
-                f"[correction] inputs: expected {len(state)} names (one per state entry), found {len(corr)}"
-            )
-        problems += _overlap_problems(state, corr, reset, attitude, rate, accel, joint, mass)
-        if state is not None:
-            for key, names in (("attitude", attitude), ("rate", rate)):
-                for nm in names or ():
-                    if nm not in state:
-                        problems.append(f"[state] {key}: {nm!r} is not one of state.variables")
-            if not problems and kin in KINEMATICS and attitude and rate:
-                idx = {n: i for i, n in enumerate(state)}
-                problems += [f"[state] {p}" for p in layout_problems(kin, len(state), [idx[n] for n in attitude],
-                                                                     [idx[n] for n in rate])]
+        Raises
+        ------
+        FMIError
+            Listing every problem as ``[section] key: expected ..., found ...``.
+        """
+        file = _validated(data, source)
+        problems = _relation_problems(file)
         if problems:
             raise FMIError("invalid mapping:\n  - " + "\n  - ".join(problems), fmu=source, function="mapping")
-        return cls(
-            state,
-            corr,
-            reset,
-            kin,
-            attitude,
-            rate,
-            accel,
-            tuple(joint),
-            mass,
-            jac,
-            dict(data.get("fmu", {})),
-            source,
-        )
+        st, m = file.state, file.measurement
+        return cls(st.variables, file.correction.inputs, file.correction.reset, st.kinematics, st.attitude, st.rate,
+                   m.accel, m.joint_accel, file.parameters.mass,
+                   JacobianOutputs(**file.jacobians.model_dump()) if file.jacobians is not None else None,
+                   file.fmu.model_dump(exclude_none=True), source)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Mapping:
@@ -280,6 +333,9 @@ class Mapping:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise FMIError(f"not valid TOML: {exc}", fmu=source, function="mapping") from exc
+        except RecursionError:
+            raise FMIError("not valid TOML: nested too deep to parse (a mapping is a few tables deep)", fmu=source,
+                           function="mapping") from None
         return cls.from_dict(data, source)
 
     def to_dict(self) -> dict:
@@ -350,6 +406,37 @@ def _close(name: str, pool: list[str]) -> str:
     return f"; close matches: {', '.join(close)}" if close else ""
 
 
+def _entry_problem(entry: str, name: str, by_name: dict, pool: list[str]) -> str | None:
+    """What is wrong with one mapped name against the FMU's variables (None when it fits)."""
+    if name not in by_name:
+        return f"{entry}: no variable {name!r} in the FMU{_close(name, pool)}"
+    v = by_name[name]
+    if v is None:
+        return None
+    causalities, variabilities, what = _ROLES[entry]
+    if v.causality not in causalities or (variabilities is not None and v.variability not in variabilities):
+        return (f"{entry}: {name!r} has causality {v.causality!r} and variability {v.variability!r}; "
+                f"expected {what}")
+    if v.type not in _REAL_TYPES:
+        return f"{entry}: {name!r} is of type {v.type}; expected a real (Real / Float64) variable"
+    return None
+
+
+def _jacobian_problems(jac: JacobianOutputs, n: int, m: int, by_name: dict, pool: list[str]) -> list[str]:
+    problems = []
+    for key, group in jac.expand(n, m).items():
+        missing = [g for g in group if g not in by_name]
+        if missing:
+            problems.append(f"jacobians.{key}: {len(missing)} of {len(group)} variables missing, "
+                            f"first {missing[0]!r}{_close(missing[0], pool)}")
+        elif by_name[group[0]] is not None:
+            unreadable = [g for g in group if by_name[g].causality not in ("output", "local")]
+            if unreadable:
+                problems.append(f"jacobians.{key}: {len(unreadable)} of {len(group)} variables are not outputs, "
+                                f"first {unreadable[0]!r}")
+    return problems
+
+
 def check_mapping(mapping: Mapping, variables, fmu: str, tangent_dim: int | None = None) -> list[str]:
     """Problems of ``mapping`` against an FMU's variables (empty when it fits).
 
@@ -374,33 +461,9 @@ def check_mapping(mapping: Mapping, variables, fmu: str, tangent_dim: int | None
     by_name = {v: None for v in variables} if all(isinstance(v, str) for v in variables) else \
         {v.name: v for v in variables}
     pool = sorted(by_name)
-    problems = []
-    for entry, name in mapping.entries():
-        if name not in by_name:
-            problems.append(f"{entry}: no variable {name!r} in the FMU{_close(name, pool)}")
-            continue
-        v = by_name[name]
-        if v is None:
-            continue
-        causalities, variabilities, what = _ROLES[entry]
-        if v.causality not in causalities or (variabilities is not None and v.variability not in variabilities):
-            problems.append(f"{entry}: {name!r} has causality {v.causality!r} and variability {v.variability!r}; "
-                            f"expected {what}")
-        elif v.type not in _REAL_TYPES:
-            problems.append(f"{entry}: {name!r} is of type {v.type}; expected a real (Real / Float64) variable")
+    problems = [p for entry, name in mapping.entries() if (p := _entry_problem(entry, name, by_name, pool))]
     if mapping.jacobians is not None and tangent_dim is not None:
-        for key, group in mapping.jacobians.expand(tangent_dim, mapping.n_meas).items():
-            missing = [g for g in group if g not in by_name]
-            if missing:
-                problems.append(
-                    f"jacobians.{key}: {len(missing)} of {len(group)} variables missing, "
-                    f"first {missing[0]!r}{_close(missing[0], pool)}"
-                )
-            elif by_name[group[0]] is not None:
-                unreadable = [g for g in group if by_name[g].causality not in ("output", "local")]
-                if unreadable:
-                    problems.append(f"jacobians.{key}: {len(unreadable)} of {len(group)} variables are not outputs, "
-                                    f"first {unreadable[0]!r}")
+        problems += _jacobian_problems(mapping.jacobians, tangent_dim, mapping.n_meas, by_name, pool)
     return problems
 
 

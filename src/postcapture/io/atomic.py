@@ -19,7 +19,7 @@ from pathlib import Path
 
 from postcapture.core.errors import OutputPathError
 
-__all__ = ["TAG", "check_output_file", "check_output_folder", "write_atomic", "temp_name", "remove_stale",
+__all__ = ["TAG", "check_output_file", "check_output_folder", "write_atomic", "temp_name", "remove_stale", "left_by_dead",
            "writer_failure", "process_alive", "fsync", "safe_stem"]
 
 logger = logging.getLogger(__name__)
@@ -66,26 +66,34 @@ def process_alive(pid: int) -> bool:
     return True
 
 
+def left_by_dead(folder, pid_of) -> list[os.DirEntry]:
+    """Entries of ``folder`` that a process which no longer runs left: ``pid_of(name)`` gives the process id in
+    an entry's name, or None for an entry that is not such a leftover."""
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return []
+    out = []
+    for entry in entries:
+        pid = pid_of(entry.name)
+        if pid is not None and pid != os.getpid() and not process_alive(pid):  # not ours, nor a running writer's
+            out.append(entry)
+    return out
+
+
 def remove_stale(folder: Path, target: str) -> int:
     """Remove the temporaries of ``target`` in ``folder`` left by processes that no longer run.
 
     Returns the number removed. Only names made by :func:`temp_name` are touched.
     """
     prefix = f".{target}{TAG}"
+
+    def pid_of(name: str) -> int | None:
+        head = name[len(prefix):].split("-", 1)[0] if name.startswith(prefix) else ""
+        return int(head) if head.isascii() and head.isdigit() else None
+
     removed = 0
-    try:
-        entries = list(os.scandir(folder))
-    except OSError:
-        return 0
-    for entry in entries:
-        if not entry.name.startswith(prefix):
-            continue
-        head = entry.name[len(prefix):].split("-", 1)[0]
-        if not (head.isascii() and head.isdigit()):
-            continue
-        pid = int(head)
-        if pid == os.getpid() or process_alive(pid):
-            continue  # ours or another running writer's
+    for entry in left_by_dead(folder, pid_of):
         try:
             if entry.is_dir(follow_symlinks=False):
                 shutil.rmtree(entry.path)
@@ -144,6 +152,23 @@ def _check_parent(p: Path) -> None:
         raise OutputPathError(errno.ENOTDIR, f"{parent} is {_kind(st.st_mode)}, not a folder", str(p))
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputPathError(errno.EACCES, f"no permission to create files in {parent}", str(p))
+    _probe(parent, p)
+
+
+def _probe(folder: Path, target: Path) -> None:
+    """Create and remove an empty file in ``folder``: permissions alone do not tell (``/proc``, a read-only
+    or full file system, a root user's ``access``)."""
+    probe = folder / temp_name(target.name[:_NAME_MAX - _DECORATION] or "out", ".probe")
+    try:
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except OSError as exc:
+        raise OutputPathError(exc.errno or errno.EIO, f"cannot create files in {folder}: {exc.strerror or exc}",
+                              str(target)) from None
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:
+        pass
 
 
 def check_output_file(path) -> Path:
@@ -247,7 +272,11 @@ def write_atomic(path, writer: Callable[[str], object]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale(path.parent, path.name)
     tmp = path.parent / temp_name(path.name, ".tmp")
-    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))  # umask gives the usual permissions
+    try:
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))  # umask gives the usual permissions
+    except OSError as exc:  # the message names the target, not our temporary
+        raise OutputPathError(exc.errno or errno.EIO, f"cannot create a file beside it: {exc.strerror or exc}",
+                              str(path)) from None
     try:
         try:
             writer(str(tmp))

@@ -67,7 +67,7 @@ OP2_TOLERANCE = {"mass": 0.05, "frequency": 0.10, "modes": 3}
 """How far an OP2 reference may lie from the project's own FEM of the same panel and mesh before it is
 refused (unless forced): the mass its mass-normalised shapes imply (relative, 5 %) and each of its
 first ``modes`` frequencies (relative, 10 %). Independent solvers on this mesh agree to 0.02-0.45 %
-(MYSTRAN, see DESIGN.md); an OP2 of the wrong panel mass once gave stiffnesses 3.5 times too low."""
+(MYSTRAN, see the README's design notes); an OP2 of the wrong panel mass once gave stiffnesses 3.5 times too low."""
 
 
 def compare_with_fem(modes: PanelModes, geometry: PanelGeometry, laminate: Laminate, *,
@@ -110,13 +110,18 @@ def _check_reference(modes: PanelModes, geometry, laminate, source: str, force: 
         return note
     what = " and ".join(w for w, off in (("mass", off_mass), ("frequencies", off_freq)) if off)
     message = (f"the OP2 reference differs from the project's own FEM of this panel in {what}, beyond the "
-               f"tolerance (mass {OP2_TOLERANCE['mass']:.0%}, frequencies {OP2_TOLERANCE['frequency']:.0%}): {note}. "
-               "Check that the OP2 is of this panel (geometry, laminate, cell mass), in SI units, with mass-normalised "
-               "eigenvectors (EIGRL NORM=MASS); to calibrate against it anyway, force it (--force-reference)")
+               f"tolerance (mass {OP2_TOLERANCE['mass']:.0%}, frequencies {OP2_TOLERANCE['frequency']:.0%}): {note}")
     if not force:
-        raise NastranError(message, source)
-    logger.warning("%s: %s; forced", source, message)
-    return note + " (beyond the tolerance; forced)"
+        raise NastranError(message + ". Check that the OP2 is of this panel (geometry, laminate, cell mass), in SI "
+                           "units, with mass-normalised eigenvectors (EIGRL NORM=MASS); to calibrate against it "
+                           "anyway, force it (--force-reference)", source)
+    logger.warning("%s: %s. Used anyway, as --force-reference asks; the result records that it was forced",
+                   source, message)
+    return note + FORCED_NOTE
+
+
+FORCED_NOTE = " (beyond the tolerance; forced)"
+"""Ends the reference's description when it was used beyond the tolerance (``force_reference``)."""
 
 
 def load_panel_file(path) -> tuple[PanelGeometry, Laminate]:
@@ -334,7 +339,7 @@ def calibrate(panel="envisat", *, segments: int = 5, weights=(1.0, 10.0, 0.1), r
         step(f"{label}: first peak {peak:.5f} Hz (reference {fem_peak:.5f} Hz)")
     return CalibrationResult(
         name=name, length=geometry.length, width=geometry.width, mass=mass, segments=segments,
-        reference=ref_text,
+        reference=ref_text, forced_reference=FORCED_NOTE in ref_text,
         fem_hz=f_ref.copy(), fem_torsion_hz=target.torsion_hz, fem_peak_hz=fem_peak, fem_tip=fem_tip,
         damping_ratio=float(damping_ratio), beta=beta, sweep=spec, runs=runs, fem_stations=fine,
         fem_w=fem_w / fem_w[-1], elapsed_s=time.perf_counter() - t0)

@@ -140,6 +140,13 @@ class CalibrationResult:
     fem_stations: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fem_w: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     elapsed_s: float = float("nan")
+    forced_reference: bool = False
+
+    def __repr__(self) -> str:
+        best = self.run()
+        return (f"CalibrationResult(panel {self.name!r}, {self.segments} segments, {len(self.runs)} runs "
+                f"({', '.join(self.runs)}); best {run_label(best.weight)}: first peak {best.peak_hz:.5g} Hz against "
+                f"{self.fem_peak_hz:.5g} Hz{'; reference forced beyond its tolerance' if self.forced_reference else ''})")
 
     # ------------------------------------------------------------------ selection
     def run(self, label: str | None = None) -> CalibrationRun:
@@ -164,11 +171,14 @@ class CalibrationResult:
         Returns
         -------
         dict
-            ``{"fem_hz": [...], "runs": {"w=0.1": {"k": [...], "k_torsion": ..., "peak_hz": ...,
-            "fem_peak_hz": ..., "mac": [...]}, ...}}``: the fitted reference bending frequencies (Hz),
-            and per run the stiffnesses (N m/rad), the first peaks (Hz) and the MAC (-).
+            ``{"reference": ..., "forced_reference": ..., "fem_hz": [...], "runs": {"w=0.1": {"k": [...],
+            "k_torsion": ..., "peak_hz": ..., "fem_peak_hz": ..., "mac": [...]}, ...}}``: what the reference
+            was and whether it was used beyond its tolerance (``force_reference``), the fitted reference
+            bending frequencies (Hz), and per run the stiffnesses (N m/rad), the first peaks (Hz) and the MAC (-).
         """
         return {
+            "reference": self.reference,
+            "forced_reference": bool(self.forced_reference),
             "fem_hz": [float(f) for f in self.fem_hz],
             "runs": {label: {"k": [float(k) for k in r.k], "k_torsion": float(r.k_torsion),
                              "peak_hz": float(r.peak_hz), "fem_peak_hz": float(self.fem_peak_hz),
@@ -178,7 +188,9 @@ class CalibrationResult:
 
     def to_json(self, *, indent: int | None = 2) -> str:
         """Return `to_dict` as JSON text (``indent`` spaces per level, None for one line)."""
-        return json.dumps(self.to_dict(), indent=indent)
+        from postcapture.io import json_text
+
+        return json_text(self.to_dict(), indent=indent)
 
     def tables(self) -> str:
         """Text tables in the manner of the reference's tables 1-3 (peaks, stiffnesses, modes)."""
@@ -230,9 +242,10 @@ class CalibrationResult:
         Returns
         -------
         str
-            TOML text: ``name, length, width, mass, segments, bending_stiffness, torsion_stiffness``
-            (SI units), with comments on its origin; ``mount`` must still be set, and ``damping_beta``
-            is given as a comment (the sweep's assumption, not identified).
+            TOML text of one ``[[<host>.panels]]`` table that a scenario takes as it is: ``name``, ``length``,
+            ``width``, ``mass``, ``segments``, ``bending_stiffness``, ``torsion_stiffness``, ``damping_beta``
+            (the sweep's assumption, not identified) and ``mount`` (at the host's origin: move it to where
+            the panel is attached), in SI units, with comments on its origin.
 
         Raises
         ------
@@ -244,18 +257,25 @@ class CalibrationResult:
         host = host or ("target" if self.name == "envisat" else "chaser")
         if host not in ("chaser", "target"):
             raise PanelModelError([Problem("host", "chaser or target", repr(host))])
-        entry = {"name": name or self.name, "length": self.length, "width": self.width,
+        from postcapture.io import safe_stem
+
+        panel_name = safe_stem(name or self.name)
+        panel_name = panel_name if panel_name[:1].isalpha() else f"panel_{panel_name}"
+        entry = {"name": panel_name[:64], "length": self.length, "width": self.width,
                  "mass": _round(self.mass), "segments": self.segments,
-                 "bending_stiffness": [_round(k) for k in r.k], "torsion_stiffness": _round(r.k_torsion)}
+                 "bending_stiffness": [_round(k) for k in r.k], "torsion_stiffness": _round(r.k_torsion),
+                 "damping_beta": _round(self.beta),
+                 "mount": {"xyz": [0.0, 0.0, 0.0], "rpy": [0.0, 0.0, 0.0]}}
         body = tomli_w.dumps({host: {"panels": [entry]}})
         notes = [f"# Lumped panel calibrated by postcapture: {self.name}, {self.segments} segments, {label}",
                  f"# reference: {self.reference}",
                  (f"# first resonance peak {r.peak_hz:.5f} Hz (reference {self.fem_peak_hz:.5f} Hz); "
                   f"MAC {' '.join(f'{m:.4f}' for m in r.mac)}"),
-                 "# Add the mount (pose of the panel root in the host frame) before use."]
-        damping = (f"# damping_beta = {_round(self.beta)}  # s: zeta = {self.damping_ratio:g} at the first "
-                   "bending mode in the sweep (assumed, not identified)")
-        return "\n".join(notes) + "\n" + body + damping + "\n"
+                 f"# damping_beta (s): zeta = {self.damping_ratio:g} at the first bending mode, the sweep's "
+                 "assumption (not identified)",
+                 "# mount: the pose of the panel root in the host frame (xyz m, rpy rad); at the host's origin "
+                 "here: move it to where the panel is attached"]
+        return "\n".join(notes) + "\n" + body
 
     # ------------------------------------------------------------------ plots and files
     def plot_data(self) -> dict:

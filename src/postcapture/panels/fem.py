@@ -180,7 +180,8 @@ def solve_modes(geometry: PanelGeometry, laminate: Laminate, *, n_length: int = 
     # Shift-invert about zero: the clamp removes the rigid-body modes, so K_ff is positive definite and
     # the lowest eigenvalues are the ones nearest the shift; the massless drilling DoF only produce
     # eigenvalues at infinity, which shift-invert never reaches.
-    omega2, phi_f = eigsh(kff, k=int(n_modes), M=mff, sigma=0.0, which="LM")
+    omega2, phi_f = eigsh(kff, k=int(n_modes), M=mff, sigma=0.0, which="LM",
+                          v0=np.ones(kff.shape[0]))  # a fixed start: the same modes, bit for bit, every run
     order = np.argsort(omega2)
     omega2, phi_f = omega2[order], phi_f[:, order]
     phi_f /= np.sqrt(np.einsum("im,im->m", phi_f, mff @ phi_f))  # phi^T M phi = 1

@@ -113,7 +113,8 @@ def solve_modes_kirchhoff(geometry: PanelGeometry, laminate: Laminate, *, n_leng
     n_free = free.size
     if not 1 <= n_modes < n_free:
         raise PanelModelError([Problem("n_modes", f"an integer in [1, {n_free - 1}]", repr(n_modes))])
-    omega2, phi_f = eigsh(k[free][:, free], k=int(n_modes), M=m[free][:, free], sigma=0.0, which="LM")
+    omega2, phi_f = eigsh(k[free][:, free], k=int(n_modes), M=m[free][:, free], sigma=0.0, which="LM",
+                          v0=np.ones(free.size))  # a fixed start: the same modes every run
     order = np.argsort(omega2)
     omega2, phi_f = omega2[order], phi_f[:, order]
     phi = np.zeros((basis.N, phi_f.shape[1]))

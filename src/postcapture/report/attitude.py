@@ -1,13 +1,15 @@
 """Attitude figures of the main job: estimates against the truth, and errors against the filters' 3 sigma.
 
-- :func:`attitude_estimates_figure` (the reference's figures 4a and 6a): the fourth quaternion
-  component of every case over the truth, made sign-continuous (a quaternion and its negative are the
-  same attitude; the stored ``w >= 0`` convention jumps from +q to -q when w crosses zero), and
-  below it the attitude error angle, where the cases separate.
+- :func:`attitude_estimates_figure` (the reference's figures 4a and 6a): the reference drew a quaternion
+  component of every case over the truth; at any readable scale they coincide (the q_z row of the former
+  figure carried no information), so this draws the attitude error angle of every case, where they
+  separate, with each filter's own 3-sigma of it.
 - :func:`attitude_error_figure` (the reference's figure 4b): one case's error per body axis within
-  the filter's own 3-sigma envelope.
+  the filter's own 3-sigma envelope (its edges dotted in the case's colour).
 
-Both read a results dataset (``postcapture.studies.results.to_dataset``).
+Both read a results dataset (``postcapture.studies.results.to_dataset``). :func:`sign_continuous` and
+:func:`align_to` make quaternion histories drawable (a quaternion and its negative are the same attitude;
+the stored ``w >= 0`` convention jumps from +q to -q when w crosses zero).
 """
 
 from __future__ import annotations
@@ -29,9 +31,9 @@ from postcapture.report.layout import (
     twins,
 )
 from postcapture.report.style import (
-    BAND_ALPHA,
-    TRUTH_STYLE,
+    BAND_EDGE,
     artist_gid,
+    band_edges,
     case_styles,
     legend_outside,
     mark_divergence,
@@ -57,7 +59,10 @@ def align_to(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
 
 
 def attitude_estimates_figure(ds) -> Figure:
-    """Fourth quaternion component (sign-continuous) and error angle, one column per filter model.
+    """Every case's attitude error angle and its filter's 3-sigma, one column per filter model.
+
+    At any readable scale the estimated quaternions coincide with the true one (a 100 arcsec error is 5e-4
+    in a component), so the figure draws what separates the cases: their errors.
 
     Parameters
     ----------
@@ -67,34 +72,34 @@ def attitude_estimates_figure(ds) -> Figure:
     Returns
     -------
     matplotlib.figure.Figure
-        Top row: ``q_z`` of every case over the truth; bottom row: the attitude error angle
-        ``|box_minus(q_true, q_est)|`` as a 10 s trailing RMS (arcsec, log scale). Divergences marked.
+        The error angle ``|box_minus(q_true, q_est)|`` as a 10 s trailing RMS (arcsec, log scale) in each
+        case's style, and the filter's own 3-sigma of that angle as the same colour's dotted line (an error
+        under its line is one the filter owns up to). Divergences marked.
     """
     groups = model_groups(ds)
     t = ds["time"].values
-    q_true = sign_continuous(ds["q_BN_true"].values)
     styles = case_styles(str(c) for c in ds["case"].values)
-    same = identical_to(ds, "q_BN_est")
-    fig, axes = new_figure(2, len(groups), time=t, width=4.8 * len(groups) + 1.0, row_height=2.9, sharey="row")
+    same = identical_to(ds, "attitude_error")
+    fig, axes = new_figure(1, len(groups), time=t, width=4.8 * len(groups) + 1.0, row_height=3.6, sharey="row")
     for col, (model, cases) in enumerate(groups):
-        ax_q, ax_e = axes[0, col], axes[1, col]
-        ax_q.plot(t, q_true[3], **TRUTH_STYLE)
+        ax = axes[0, col]
         for case in cases:
             style = styles[case]
-            q = align_to(ds["q_BN_est"].sel(case=case).values, q_true)
-            ax_q.plot(t, q[3], label=case_label(case, same), gid=artist_gid(case, "line"), **style.line())
             angle = np.linalg.norm(ds["attitude_error"].sel(case=case).values, axis=0) / ARCSEC
             rms = moving_rms(t, angle, RMS_WINDOW_S)
-            ax_e.plot(t, rms, gid=artist_gid(case, "line"), **style.line())
+            ax.plot(t, rms, label=case_label(case, same), gid=artist_gid(case, "line"), **style.line())
+            if case not in same:
+                three = 3.0 * np.linalg.norm(ds["attitude_sigma"].sel(case=case).values, axis=0) / ARCSEC
+                ax.plot(t, three, color=style.color, zorder=style.zorder - 1.0, gid=artist_gid(case, "band"),
+                        label="3σ of the angle, each filter (dotted)", **BAND_EDGE)
             t_div = divergence_time(ds, case)
             if t_div is not None:
-                mark_divergence(ax_e, t_div, last_before(t, rms, t_div), style, case)
-        panel_title(ax_q, col, model_title(model))
-        ax_e.set_yscale("log")
-        ax_e.set_xlabel("time (s)")
-    axes[0, 0].set_ylabel("$q_z$ of $q_{BN}$ (-), sign-continuous")
-    axes[1, 0].set_ylabel(f"error angle, {RMS_WINDOW_S:g} s RMS (arcsec)")
-    fig.suptitle(f"Attitude estimates and error, body frame B relative to N\n{subtitle(ds)}", fontsize=11)
+                mark_divergence(ax, t_div, last_before(t, rms, t_div), style, case)
+        panel_title(ax, col, model_title(model))
+        ax.set_yscale("log")
+        ax.set_xlabel("time (s)")
+    axes[0, 0].set_ylabel(f"attitude error angle, {RMS_WINDOW_S:g} s RMS (arcsec)")
+    fig.suptitle(f"Attitude error of B relative to N, and each filter's 3σ\n{subtitle(ds)}", fontsize=11)
     legend_outside(fig)
     return fig
 
@@ -119,16 +124,13 @@ def attitude_error_figure(ds, case: str) -> Figure:
     err = ds["attitude_error"].sel(case=case).values / ARCSEC
     sig = ds["attitude_sigma"].sel(case=case).values / ARCSEC
     style = case_styles(str(c) for c in ds["case"].values)[case]
-    same = identical_to(ds, "attitude_error")
     others = twins(ds, "attitude_error")[case]
     t_div = divergence_time(ds, case)
     fig, axes = new_figure(3, 1, time=t, width=9.0, row_height=2.2)
     for i, axis in enumerate("xyz"):
         ax = axes[i, 0]
-        ok = np.isfinite(sig[i])
-        ax.fill_between(t[ok], -3 * sig[i][ok], 3 * sig[i][ok], color="0.5", alpha=BAND_ALPHA * 2, linewidth=0,
-                        label="±3σ of the filter", gid=artist_gid(case, "band"))
-        ax.plot(t, err[i], label=case_label(case, same), gid=artist_gid(case, "line"),
+        band_edges(ax, t, -3 * sig[i], 3 * sig[i], style, case, label="±3σ of the filter (dotted)")
+        ax.plot(t, err[i], label=" = ".join([case, *others]), gid=artist_gid(case, "line"),
                 **{**style.line(), "linewidth": min(style.linewidth, 1.0)})
         ax.set_ylabel(f"$\\delta\\theta_{axis}$ about $B_{axis}$ (arcsec)")
         late = t >= t[0] + 0.1 * (t[-1] - t[0])  # scale on the run after the initial transient
@@ -139,8 +141,7 @@ def attitude_error_figure(ds, case: str) -> Figure:
         if t_div is not None:
             mark_divergence(ax, t_div, last_before(t, err[i], t_div), style, case, text=i == 0)
     axes[2, 0].set_xlabel("time (s)")
-    note = f"; identical to {', '.join(others)}" if others else ""
-    fig.suptitle(f"Attitude error of {case} (true relative to estimated, body axes){note}\n{subtitle(ds)}",
-                 fontsize=11)
+    fig.suptitle(f"Attitude error of {' = '.join([case, *others])} about the body axes, within its filter's ±3σ\n"
+                 f"{subtitle(ds)}", fontsize=11)
     legend_outside(fig)
     return fig

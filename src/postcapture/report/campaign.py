@@ -1,9 +1,11 @@
 """Tables and figures of a Monte Carlo campaign (its summary dict and its xarray Dataset in; text and figures out).
 
 - ``campaign_final_errors``: each run's final mass error with the filter's own 3-sigma bar, one panel per
-  case; runs whose error lies outside their 3 sigma are drawn in red.
+  case, against +-3 times the Cramer-Rao bound (what any estimator can claim); runs whose error lies
+  outside their 3 sigma are marked with a cross.
 - ``campaign_nees``: the NEES averaged over the runs at each instant, mass (1 degree of freedom) and
-  attitude (3), against the two-sided 95 % chi-square band for that many runs.
+  attitude (3), against the two-sided 95 % chi-square band for that many runs (its edges dotted) and the
+  expected value (dashed), on a log axis labelled with plain numbers.
 """
 
 from __future__ import annotations
@@ -68,15 +70,29 @@ def campaign_table(summary: dict) -> str:
     return "\n".join(lines)
 
 
+def _plain_log_ticks(ax) -> None:
+    """Log axis labelled with plain numbers at 1-2-5 steps (0.5, 1, 2, 5, 10), no minor labels."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    ax.yaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0), numticks=12))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
 def _title(summary: dict, what: str) -> str:
-    kind = "dispersed truths" if summary.get("dispersed") else "one truth"
+    truth = summary.get("truth")
+    kind = ("dispersed truths drawn from the priors" if summary.get("dispersed")
+            else f"one truth: {'the nominal scenario' if truth in (None, 'nominal') else truth}")
     seeds = f", seeds ({summary['seed']}, r)" if summary.get("seed") is not None else ""
-    return (f"{what}: {summary.get('scenario')}, {summary.get('profile')} profile, {summary['runs']} runs "
-            f"({kind}{seeds})")
+    return (f"{what}\nscenario {summary.get('scenario')}, {summary.get('profile')} profile, {summary['runs']} runs; "
+            f"{kind}{seeds}")
 
 
 def campaign_figures(ds, summary: dict) -> dict:
     """``{stem: Figure}`` of a campaign (see the module docstring)."""
+    from postcapture.io.netcdf import labelled
+
+    ds = labelled(ds)
     cases = [str(c) for c in ds["case"].values]
     n_c = len(cases)
     runs = ds["run"].values
@@ -97,8 +113,13 @@ def campaign_figures(ds, summary: dict) -> dict:
                 ax.errorbar(runs[mask], e_f[mask], yerr=3.0 * s_f[mask], fmt=fmt, ms=3 if fmt == "o" else 6, lw=0.8,
                             capsize=2, color=colour, mec="black" if fmt == "X" else colour,
                             label=f"{case}: {label} ({int(mask.sum())})")
-        ax.axhline(0.0, color="k", lw=0.8)
+        ax.axhline(0.0, color="0.3", lw=0.8)
         c = summary["cases"][case]
+        crlb = c.get("crlb_kg")
+        if crlb:  # what any estimator can claim with this model error: +-3 CRLB, as edges
+            for sign in (-1, 1):
+                ax.axhline(sign * 3.0 * crlb, color="0.25", linestyle=(0, (6.0, 3.0)), lw=1.0,
+                           label=f"±3 × Cramer-Rao bound ({3.0 * crlb:.3g} kg)" if sign > 0 else "_nolegend_")
         title = f"{case}: {c['inside_3sigma_fraction']:.0%} of the runs inside their 3σ"
         if c["mass_error_rms_kg"] is not None:
             title += f", RMS {c['mass_error_rms_kg']:.3g} kg"
@@ -124,9 +145,15 @@ def campaign_figures(ds, summary: dict) -> dict:
             ax = fig2.add_subplot(n_c, 2, 2 * j + col + 1)
             ax.semilogy(t[1:], values[1:], color=case_style(case).color, linestyle=case_style(case).linestyle,
                         lw=1.0, label=f"{case}: mean over runs", gid=artist_gid(case, "line"))
-            ax.axhspan(band[0], band[1], color="0.5", alpha=0.2, label="95 % band of the mean")
+            for edge in band:
+                ax.axhline(edge, color="0.35", lw=0.9, linestyle=(0, (1.0, 1.5)),
+                           label="95 % band of the mean (dotted)" if edge == band[0] else "_nolegend_")
+            expected = 1.0 if col == 0 else 3.0  # the state's dimension
+            ax.axhline(expected, color="0.1", lw=1.0, linestyle=(0, (6.0, 3.0)),
+                       label="expected value (1 mass, 3 attitude)")
+            _plain_log_ticks(ax)
             ax.set_title(f"{case}: {label}", fontsize=9)
-            ax.grid(alpha=0.3, which="both")
+            ax.grid(alpha=0.3, which="major")
             if j == n_c - 1:
                 ax.set_xlabel("time (s)")
     fig2.suptitle(_title(summary, "NEES averaged over the runs"), fontsize=10)

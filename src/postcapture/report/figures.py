@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from matplotlib.figure import Figure
 
 from postcapture.report.attitude import attitude_error_figure, attitude_estimates_figure
+from postcapture.report.layout import identical_to
 from postcapture.report.mass import mass_error_figure, mass_estimates_figure
 
 __all__ = ["FigureSpec", "FIGURES", "main_job_figures"]
@@ -29,12 +30,13 @@ class FigureSpec:
 
 
 FIGURES = (
-    FigureSpec("attitude_estimates", "fourth quaternion component of every case over the truth, sign-continuous, "
-               "and the attitude error angle (10 s RMS); one column per filter model", "4a, 6a"),
-    FigureSpec("attitude_error_{case}", "one case's attitude error about each body axis within the filter's "
-               "±3σ envelope", "4b"),
-    FigureSpec("mass_estimates", "target-mass estimates with their ±3σ bands and the truth; (a) flexible, "
-               "(b) stiff filter model", "5a, 5b, 6b"),
+    FigureSpec("attitude_estimates", "every case's attitude error angle (10 s RMS, where the estimates, which "
+               "coincide with the truth at any readable scale, separate) with its filter's 3σ dotted; one column per "
+               "filter model", "4a, 6a"),
+    FigureSpec("attitude_error_{case}", "one case's attitude error about each body axis within its filter's ±3σ "
+               "(dotted edges); one figure per distinct history, titled with every case that has it", "4b"),
+    FigureSpec("mass_estimates", "target-mass estimates with their ±3σ (dotted edges in each case's colour) and the "
+               "truth; (a) flexible, (b) stiff filter model", "5a, 5b, 6b"),
     FigureSpec("mass_error", "signed mass error, and its 10 s RMS on a log scale, 1 % and 0.1 % marked; "
                "one column per filter model", "none (ours)"),
 )
@@ -53,11 +55,16 @@ def main_job_figures(ds) -> dict[str, Figure]:
     -------
     dict of str to matplotlib.figure.Figure
     """
+    from postcapture.io.netcdf import labelled
+
+    ds = labelled(ds)  # a file's labels (case names) back on their dimensions
     figures = {
         "attitude_estimates": attitude_estimates_figure(ds),
         "mass_estimates": mass_estimates_figure(ds),
         "mass_error": mass_error_figure(ds),
     }
+    same = identical_to(ds, "attitude_error")
     for case in (str(c) for c in ds["case"].values):
-        figures[f"attitude_error_{case}"] = attitude_error_figure(ds, case)
+        if case not in same:  # one figure per distinct history: its title names the cases that share it
+            figures[f"attitude_error_{case}"] = attitude_error_figure(ds, case)
     return figures

@@ -72,10 +72,12 @@ def case_label(case: str, same: dict[str, str]) -> str:
 
 
 def subtitle(ds) -> str:
-    """Scenario, profile, seed and duration of a results dataset, for figure titles."""
+    """Scenario, profile, seed, duration and the truth's source of a results dataset, for figure titles."""
     a = ds.attrs
+    truth = a.get("truth_source", "nominal")
+    truth = "the nominal scenario (the filters' model)" if truth in ("nominal", "") else truth
     return run_subtitle(scenario=a.get("scenario", "?"), profile=a.get("profile", "?"), seed=a.get("seed", "?"),
-                        duration_s=a.get("duration_s"), plant=a.get("plant"))
+                        duration_s=a.get("duration_s"), plant=a.get("plant"), truth=truth)
 
 
 def divergence_time(ds, case: str) -> float | None:

@@ -1,7 +1,8 @@
 """Mass figures of the main job, one panel per filter model as the reference's figure 5 (a)/(b).
 
 - :func:`mass_estimates_figure` (the reference's figures 5 and 6b): every case's estimate with its
-  3-sigma band over the whole run (drawn continuously, clipped only by the axes), and the truth.
+  3-sigma band over the whole run (its two edges as dotted lines in the case's colour, so that a band
+  wider than the axes still shows where it ends), and the truth.
 - :func:`mass_error_figure`: the signed error (linear), and its moving RMS on a log scale, so that
   converged errors read as decades without the spikes of ``|error|`` at every zero crossing.
 
@@ -25,9 +26,9 @@ from postcapture.report.layout import (
     subtitle,
 )
 from postcapture.report.style import (
-    BAND_ALPHA,
     TRUTH_STYLE,
     artist_gid,
+    band_edges,
     case_styles,
     legend_outside,
     mark_divergence,
@@ -64,12 +65,13 @@ def mass_estimates_figure(ds) -> Figure:
             style = styles[case]
             m = ds["mass_est"].sel(case=case).values
             s = ds["mass_sigma"].sel(case=case).values
-            ok = np.isfinite(m) & np.isfinite(s)
             if case not in same:  # a case drawn over an identical one adds no second band
-                ax.fill_between(t[ok], (m - 3 * s)[ok], (m + 3 * s)[ok], color=style.color, alpha=BAND_ALPHA,
-                                linewidth=0, zorder=1.0, gid=artist_gid(case, "band"))
+                band_edges(ax, t, m - 3 * s, m + 3 * s, style, case, label="±3σ of each filter (dotted, its colour)")
             ax.plot(t, m, label=case_label(case, same), gid=artist_gid(case, "line"), **style.line())
             finite.extend(m[np.isfinite(m)].tolist())
+            last = np.nonzero(np.isfinite(m) & np.isfinite(s))[0]
+            if last.size and case not in same:  # the final band's edges are in view (the early ones are wide)
+                finite += [m[last[-1]] - 3 * s[last[-1]], m[last[-1]] + 3 * s[last[-1]]]
             t_div = divergence_time(ds, case)
             if t_div is not None:
                 mark_divergence(ax, t_div, last_before(t, m, t_div), style, case)
@@ -80,7 +82,7 @@ def mass_estimates_figure(ds) -> Figure:
         panel_title(ax, col, model_title(model))
         ax.set_xlabel("time (s)")
     axes[0, 0].set_ylabel("target mass (kg)")
-    fig.suptitle(f"Target mass estimates, bands ±3σ of each filter\n{subtitle(ds)}", fontsize=11)
+    fig.suptitle(f"Target mass estimates and each filter's ±3σ (dotted edges)\n{subtitle(ds)}", fontsize=11)
     legend_outside(fig)
     return fig
 

@@ -49,6 +49,8 @@ __all__ = [
     "legend_outside",
     "panel_title",
     "mark_divergence",
+    "band_edges",
+    "BAND_EDGE",
     "artist_gid",
 ]
 
@@ -87,7 +89,7 @@ CASE_STYLES: dict[str, CaseStyle] = {
     "ekf_flexible": CaseStyle("#0072B2", "-", 2.0, 3.0),
     "mekf_flexible": CaseStyle("#D55E00", _DASHED, 1.5, 3.2),
     "dual": CaseStyle("#009E73", "-", 2.2, 3.6),
-    "joint": CaseStyle("#000000", _DOTTED, 2.0, 3.5),
+    "joint": CaseStyle("#332288", (0, (4.0, 3.0)), 1.4, 3.8),  # indigo dashes, drawn over dual's green
     "ekf_stiff": CaseStyle("#56B4E9", "-", 2.0, 3.0),
     "mekf_stiff": CaseStyle("#E69F00", _DASHED, 1.5, 3.2),
     "ekf_flexible_partial": CaseStyle("#CC79A7", _DASHDOT, 1.6, 3.1),
@@ -96,10 +98,13 @@ CASE_STYLES: dict[str, CaseStyle] = {
 """The fixed styles of the named cases. Add new names here to choose their style by hand."""
 
 TRUTH_STYLE = {"color": "black", "linestyle": "-", "linewidth": 2.6, "zorder": 2.0, "label": "truth"}
-"""The truth is a thick black line drawn under the estimates."""
+"""The truth is a thick black line drawn under the estimates; no case is drawn in black."""
 
 BAND_ALPHA = 0.14
-"""Opacity of the 3-sigma bands (in the case's colour)."""
+"""Opacity of the faint fill between a 3-sigma band's edges (in the case's colour)."""
+
+BAND_EDGE = {"linewidth": 0.8, "linestyle": (0, (1.0, 1.5)), "alpha": 0.9}
+"""How a 3-sigma band's edges are drawn: thin dotted lines in the case's colour."""
 
 DPI = 110
 """Resolution of the PNG files."""
@@ -114,7 +119,7 @@ MODEL_TITLES = {
 }
 
 # Paul Tol's muted palette (colour-blind safe), without the colours the named cases use.
-_SPARE_COLOURS = ("#332288", "#88CCEE", "#44AA99", "#117733", "#999933", "#DDCC77", "#CC6677", "#AA4499")
+_SPARE_COLOURS = ("#88CCEE", "#44AA99", "#117733", "#999933", "#DDCC77", "#CC6677", "#AA4499")
 _SPARE_LINESTYLES = ("-", _DASHED, _DASHDOT, _DOTTED)
 
 
@@ -185,13 +190,16 @@ def case_styles(names: Iterable[str]) -> dict[str, CaseStyle]:
     return {n: resolved[n] for n in names}
 
 
-def run_subtitle(*, scenario: str, profile: str, seed, duration_s: float | None = None, plant: str | None = None) -> str:
-    """The line every figure title carries: scenario, sensor profile, seed (and duration, plant)."""
+def run_subtitle(*, scenario: str, profile: str, seed, duration_s: float | None = None, plant: str | None = None,
+                 truth: str | None = None) -> str:
+    """The line every figure title carries: scenario, sensor profile, seed (and duration, plant, the truth's source)."""
     parts = [f"scenario {scenario}", f"{profile} profile", f"seed {seed}"]
     if duration_s is not None:
         parts.append(f"{duration_s:g} s")
     if plant and plant != "native":
         parts.append(f"plant {plant}")
+    if truth:
+        parts.append(f"truth: {truth}")
     return ", ".join(parts)
 
 
@@ -255,6 +263,15 @@ def mark_divergence(ax, t_div: float, y, style: CaseStyle, name: str, *, text: b
                     xytext=(-4 if right else 4, 0), textcoords="offset points", ha="right" if right else "left",
                     va="top", fontsize=8, color=style.color,
                     bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1.0})
+
+
+def band_edges(ax, t, lower, upper, style: CaseStyle, case: str, *, label: str | None = None) -> None:
+    """A case's band (``lower`` to ``upper``, e.g. +-3 sigma) drawn as its two edges in the case's colour, not as a
+    fill: a fill wider than the axes is a flat tint whose edges never show. NaN samples leave gaps; the
+    artists are tagged ``band``."""
+    for k, edge in enumerate((lower, upper)):
+        ax.plot(t, edge, color=style.color, zorder=style.zorder - 1.0, gid=artist_gid(case, "band"),
+                label=label if k == 0 and label else "_nolegend_", **BAND_EDGE)
 
 
 def artist_gid(case: str, kind: str) -> str:

@@ -81,6 +81,8 @@ class MainJobResult:
     plant: str = "native"
     nominal_mass: float = float("nan")
     truth_info: dict = field(default_factory=dict)
+    sensors: object = None  # the recorded measurements every case read (results.nc keeps them)
+    scenario_model: object = None  # the nominal scenario (its TOML goes into the files' provenance)
 
     def summary(self) -> dict:
         """The JSON the CLI prints: ``{"cases": {name: {...}}, "truth": {...}, "wall_s": ...}`` plus context."""
@@ -310,7 +312,7 @@ def run_main_job(
     m_true = truth_info["target_mass"]
     res = MainJobResult(scenario.name, plan.profile_name, float(traj.t[-1] - traj.t[0]), m_true, plan.initial_mass,
                         plan.seed, traj, truth_wall_s=truth_wall, plant=plan.plant, nominal_mass=plan.nominal_mass,
-                        truth_info=truth_info)
+                        truth_info=truth_info, sensors=sensors, scenario_model=scenario)
     res.crlb = outputs.pop("crlb", None)
     for name in plan.cases:
         res.cases[name] = CaseOutput(name, outputs[name], case_metrics(outputs[name], traj["q_BN"], m_true))

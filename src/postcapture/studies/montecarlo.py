@@ -18,7 +18,6 @@ cluster of worker processes is started on 127.0.0.1.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
 import logging
@@ -35,9 +34,12 @@ from postcapture.studies.robust import with_model_noise
 from postcapture.studies.setup import RunPlan, plan_run
 from postcapture.config.schema import Scenario
 from postcapture.core import rotations as rot
-from postcapture.core.errors import MissingExtraError, Problem, ScenarioError
+from postcapture.core.errors import Problem, ScenarioError
 from postcapture.io import write_atomic
-from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, target_properties, truth_vector_names
+from postcapture.studies.checkpoints import save_run, saved_runs, settings_digest
+from postcapture.studies.scheduler import MAX_WORKERS, check_scheduler, dask_client
+from postcapture.studies.target_estimates import target_errors as _target_errors
+from postcapture.dynamics.truth import TruthModel, check_priors, draw_truth, truth_vector_names
 from postcapture.estimation.history import StepFlag
 
 __all__ = ["CampaignResult", "run_campaign", "run_one"]
@@ -45,9 +47,6 @@ __all__ = ["CampaignResult", "run_campaign", "run_one"]
 logger = logging.getLogger(__name__)
 
 _MANIFEST = "campaign.json"
-_RUN_ARRAYS = ("mass_error", "mass_sigma", "attitude_error", "attitude_sigma", "attitude_nees", "com_error",
-               "inertia_error", "com_sigma", "inertia_sigma")
-_ADDED_LATER = {"com_sigma": 3, "inertia_sigma": 6}
 _RUNS = "runs"
 
 
@@ -97,41 +96,6 @@ def run_one(plan: RunPlan, r: int, dispersed: bool, shared_truth=None) -> dict:
     return out
 
 
-def _target_errors(plan: RunPlan, res, truth_vec, names) -> dict:
-    """Final errors of the whole target's centre of mass (m, 3, G frame) and inertia (kg m^2, 6: xx, yy, zz,
-    xy, xz, yz), where estimated, with the filter's 1-sigma of each (its final covariance of the ten
-    inertial parameters carried through the same map, to first order)."""
-    nan = {"com_error": np.full(3, np.nan), "inertia_error": np.full(6, np.nan),
-           "com_sigma": np.full(3, np.nan), "inertia_sigma": np.full(6, np.nan)}
-    p = getattr(res, "params", None)
-    if p is None or not np.all(np.isfinite(p[:10, -1])):
-        return nan
-
-    def whole(pi):
-        est = target_properties(plan.scenario, pi)
-        I = est.inertia
-        return np.concatenate([est.com, [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]])
-
-    pi = p[:10, -1].copy()
-    y = whole(pi)
-    t = dict(zip(names, truth_vec))
-    true_I = np.array([t[f"target_I_{a}"] for a in ("xx", "yy", "zz", "xy", "xz", "yz")])
-    true_c = np.array([t[f"target_com_{a}"] for a in "xyz"])
-    out = {"com_error": y[:3] - true_c, "inertia_error": y[3:] - true_I,
-           "com_sigma": np.full(3, np.nan), "inertia_sigma": np.full(6, np.nan)}
-    C = getattr(res, "params_cov", None)
-    if C is not None and np.all(np.isfinite(C[:10, :10])):
-        J = np.empty((9, 10))
-        for j in range(10):  # central differences; the map is smooth and cheap
-            h = 1e-6 * max(abs(pi[j]), 1.0)
-            e = np.zeros(10)
-            e[j] = h
-            J[:, j] = (whole(pi + e) - whole(pi - e)) / (2 * h)
-        s = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, C[:10, :10], J), 0.0))
-        out["com_sigma"], out["inertia_sigma"] = s[:3], s[3:]
-    return out
-
-
 def _task(payload: dict, r: int, shared_truth=None) -> dict:
     """Dask task: one run (module level, so it pickles)."""
     import os
@@ -139,35 +103,6 @@ def _task(payload: dict, r: int, shared_truth=None) -> dict:
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     return run_one(payload["plan"], r, payload["dispersed"], shared_truth)
-
-
-# ---------------------------------------------------------------------------------------------- storage
-def _save_run(folder: Path, result: dict) -> Path:
-    arrays = {"truth": result["truth"], "true_mass": np.array(result["true_mass"])}
-    meta = {"run": result["run"], "cases": {}}
-    for case, c in result["cases"].items():
-        for key in _RUN_ARRAYS:
-            arrays[f"{case}/{key}"] = c[key]
-        meta["cases"][case] = {"diverged_at": c["diverged_at"], "message": c["message"]}
-    arrays["meta"] = np.array(json.dumps(meta))
-    path = folder / f"run_{result['run']:05d}.npz"
-    def write(tmp):
-        with open(tmp, "wb") as f:  # a file object: savez would append ".npz" to a temporary name
-            np.savez(f, **arrays)
-
-    return write_atomic(path, write)
-
-
-def _load_run(path: Path) -> dict:
-    with np.load(path, allow_pickle=False) as z:
-        meta = json.loads(str(z["meta"]))
-        out = {"run": meta["run"], "truth": z["truth"], "true_mass": float(z["true_mass"]), "cases": {}}
-        for case, info in meta["cases"].items():
-            c = {key: z[f"{case}/{key}"] if f"{case}/{key}" in z.files else np.full(_ADDED_LATER[key], np.nan)
-                 for key in _RUN_ARRAYS}  # a run saved before the sigmas were recorded has NaN ones
-            c.update(info)
-            out["cases"][case] = c
-    return out
 
 
 # ---------------------------------------------------------------------------------------------- the campaign
@@ -189,20 +124,22 @@ def _settings(plan: RunPlan, runs: int, dispersed: bool) -> dict:
     }
 
 
-def _prepare_out(out: Path, settings: dict, fresh: bool) -> dict[int, Path]:
-    """Check or write the manifest; return the runs already saved."""
+def _prepare_out(out: Path, settings: dict, fresh: bool) -> dict[int, dict]:
+    """Check or write the manifest; return the valid runs already saved (see :mod:`.checkpoints`)."""
     manifest = out / _MANIFEST
     runs_dir = out / _RUNS
+    digest = settings_digest(settings)
     if manifest.exists() and not fresh:
         try:
             saved = json.loads(manifest.read_text())
         except (OSError, ValueError) as exc:
             raise ScenarioError([Problem("--out", "a campaign folder with a readable campaign.json", str(exc))]) from None
         if saved != settings:
-            diff = sorted(k for k in set(saved) | set(settings) if saved.get(k) != settings.get(k))
+            diff = sorted(k for k in set(saved) | set(settings) if saved.get(k) != settings.get(k)) \
+                if isinstance(saved, dict) else ["the whole manifest"]
             raise ScenarioError([Problem("--out", f"a new folder, or this campaign's own (its settings differ in "
                                                   f"{', '.join(diff)}); use another --out or --fresh", str(out))])
-        return {int(p.stem[4:]): p for p in sorted(runs_dir.glob("run_*.npz"))}
+        return saved_runs(runs_dir, digest=digest, runs=settings["runs"], cases=settings["cases"])
     if fresh and runs_dir.exists():
         for p in runs_dir.glob("run_*.npz"):
             p.unlink()
@@ -211,41 +148,53 @@ def _prepare_out(out: Path, settings: dict, fresh: bool) -> dict[int, Path]:
     return {}
 
 
-@contextlib.contextmanager
-def _dask_client(scheduler: str | None, workers: int):
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError as exc:
-        raise MissingExtraError("dask[distributed]", "campaign") from exc
-    # Dask logs every start and stop of its workers and servers at INFO: keep a campaign's output to itself.
-    quiet = logging.getLogger("distributed")
-    level = quiet.level
-    quiet.setLevel(logging.ERROR)
-    cluster = None
-    try:
-        if scheduler is None:
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=":0", silence_logs=logging.ERROR,
-                                   preload=["postcapture.studies.pool"])  # workers leave Ctrl-C to us
-            client = Client(cluster, set_as_default=False)
-        else:
-            try:
-                client = Client(scheduler, timeout="5s", set_as_default=False)
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise ScenarioError([Problem("--scheduler", "the address of a running Dask scheduler (tcp://HOST:PORT)",
-                                             f"{scheduler!r}: {exc}")]) from None
-        try:
-            yield client
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    except BaseException:
-        # interrupted or failed: the cluster's nannies may still be closing (their INFO lines would follow
-        # the one-line message the user is given), so the distributed logger stays quiet
-        raise
-    else:
-        quiet.setLevel(level)
+def _check_arguments(runs, workers, dispersed, truth, scheduler) -> None:
+    problems = []
+    if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
+        problems.append(Problem("runs", "a whole number >= 1", repr(runs)))
+    if not isinstance(workers, int) or isinstance(workers, bool) or not 0 <= workers <= MAX_WORKERS:
+        problems.append(Problem("workers", f"a whole number in [0, {MAX_WORKERS}]", repr(workers)))
+    if dispersed and truth is not None:
+        problems.append(Problem("truth", "no fixed truth in a dispersed campaign (each run draws its own)", truth.source))
+    if problems:
+        raise ScenarioError(problems)
+    if scheduler is not None:
+        check_scheduler(scheduler)  # an unusable address fails here, before any simulation
+
+
+def _campaign_plan(scenario, *, truth, profile, duration, cases, initial_mass_error, dispersed, crlb) -> RunPlan:
+    """The plan every run shares (model noise derived once), every prior checked."""
+    plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
+                    initial_mass_error=initial_mass_error)
+    if crlb or any(CASES[c].scheme in ("dual", "joint") for c in plan.cases):
+        plan = with_model_noise(plan)  # once, here: every run's filters share it
+    if dispersed:
+        check_priors(scenario)
+        draw_truth(scenario, (plan.seed, 0))  # a prior that cannot give a physical truth fails here, not in a worker
+    return plan
+
+
+def _run_locally(plan, todo, dispersed, crlb, done_one):
+    shared = None if dispersed else simulate_truth(plan)
+    for r in todo:
+        done_one(run_one(plan, r, dispersed, shared))
+    return _crlb(plan) if crlb else None
+
+
+def _run_on_dask(plan, todo, dispersed, crlb, done_one, scheduler, workers):
+    with dask_client(scheduler, workers) as client:
+        from dask.distributed import as_completed
+
+        payload = {"plan": plan, "dispersed": dispersed}
+        shared = None if dispersed else client.submit(simulate_truth, plan, pure=False)
+        futures = [client.submit(_task, payload, r, shared, pure=False) for r in todo]
+        crlb_future = client.submit(_crlb, plan, pure=False) if crlb else None
+        # as_completed waits on the default client's event loop unless told; a caller with a client of its own
+        # (another loop) would make the futures' events refuse the second loop
+        for fut in as_completed(futures, loop=client.loop):
+            done_one(fut.result())
+            fut.release()
+        return crlb_future.result() if crlb_future is not None else None
 
 
 def run_campaign(
@@ -263,7 +212,7 @@ def run_campaign(
     out: str | Path | None = None,
     fresh: bool = False,
     crlb: bool = True,
-    progress: Callable[[str, int, int], None] | None = None,
+    progress: Callable[[str, float], None] | None = None,
 ) -> CampaignResult:
     """Run a Monte Carlo campaign (see the module docstring).
 
@@ -289,83 +238,47 @@ def run_campaign(
         Discard runs saved in ``out`` by an earlier campaign instead of resuming.
     crlb : bool
         Also compute the mass Cramer-Rao bound on the nominal model.
-    progress : callable(message, done, total), optional
+    progress : callable(task, fraction), optional
+        Called with ``("runs", done / runs)`` as runs finish (and once at the start when runs are resumed),
+        the one progress signature of the package (:mod:`postcapture.facade`).
 
     Raises
     ------
     ScenarioError
-        For any bad setting, an unreachable scheduler or an ``out`` holding another campaign, before
+        For any bad setting, an unusable scheduler address or an ``out`` holding another campaign, before
         anything is simulated.
     """
     wall0 = time.perf_counter()
-    problems = []
-    if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
-        problems.append(Problem("runs", "a whole number >= 1", repr(runs)))
-    if not isinstance(workers, int) or workers < 0:
-        problems.append(Problem("workers", "a whole number >= 0", repr(workers)))
-    if dispersed and truth is not None:
-        problems.append(Problem("truth", "no fixed truth in a dispersed campaign (each run draws its own)", truth.source))
-    if problems:
-        raise ScenarioError(problems)
-    plan = plan_run(scenario, truth=truth, profile=profile, duration=duration, cases=tuple(cases),
-                    initial_mass_error=initial_mass_error)
-    if scheduler is not None:
-        with _dask_client(scheduler, workers):  # an unreachable scheduler fails here, before any simulation
-            pass
-    if crlb or any(CASES[c].scheme in ("dual", "joint") for c in plan.cases):
-        plan = with_model_noise(plan)  # once, here: every run's filters share it
-    if dispersed:
-        check_priors(scenario)
-        draw_truth(scenario, (plan.seed, 0))  # a prior that cannot give a physical truth fails here, not in a worker
+    _check_arguments(runs, workers, dispersed, truth, scheduler)
+    plan = _campaign_plan(scenario, truth=truth, profile=profile, duration=duration, cases=cases,
+                          initial_mass_error=initial_mass_error, dispersed=dispersed, crlb=crlb)
     settings = _settings(plan, runs, dispersed)
-
-    def tell(msg, done, total):
-        if progress is not None:
-            progress(msg, done, total)
-
-    saved: dict[int, Path] = {}
+    digest = settings_digest(settings)
     out_path = Path(out) if out is not None else None
-    if out_path is not None:
-        saved = _prepare_out(out_path, settings, fresh)
-    results: dict[int, dict] = {r: _load_run(p) for r, p in saved.items() if r < runs}
-    if results:
-        logger.info("resuming: %d of %d runs already saved in %s", len(results), runs, out_path)
-        tell(f"resuming: {len(results)} of {runs} runs already saved", len(results), runs)
-    todo = [r for r in range(runs) if r not in results]
-    payload = {"plan": plan, "dispersed": dispersed}
+    results: dict[int, dict] = _prepare_out(out_path, settings, fresh) if out_path is not None else {}
+    resumed = len(results)
+    if resumed:
+        logger.warning("resuming: %d of %d runs already saved in %s", resumed, runs, out_path)
+        if progress is not None:
+            progress("runs", resumed / runs)
 
     def done_one(res):
         results[res["run"]] = res
         if out_path is not None:
-            _save_run(out_path / _RUNS, res)
-        tell("runs", len(results), runs)
+            save_run(out_path / _RUNS, res, digest)
+        if progress is not None:
+            progress("runs", len(results) / runs)
 
+    todo = [r for r in range(runs) if r not in results]
     crlb_value = None
     if todo or crlb:
         if workers == 0 and scheduler is None:
-            shared = None if dispersed else simulate_truth(plan)
-            for r in todo:
-                done_one(run_one(plan, r, dispersed, shared))
-            if crlb:
-                crlb_value = _crlb(plan)
+            crlb_value = _run_locally(plan, todo, dispersed, crlb, done_one)
         else:
-            with _dask_client(scheduler, workers) as client:
-                from dask.distributed import as_completed
-
-                shared = None if dispersed else client.submit(simulate_truth, plan, pure=False)
-                futures = [client.submit(_task, payload, r, shared, pure=False) for r in todo]
-                crlb_future = client.submit(_crlb, plan, pure=False) if crlb else None
-                # as_completed waits on the default client's event loop unless told; a caller with a client of
-                # its own (another loop) would make the futures' events refuse the second loop
-                for fut in as_completed(futures, loop=client.loop):
-                    done_one(fut.result())
-                    fut.release()
-                if crlb_future is not None:
-                    crlb_value = crlb_future.result()
-    t = plan.t_grid
+            crlb_value = _run_on_dask(plan, todo, dispersed, crlb, done_one, scheduler, workers)
     ordered = [results[r] for r in sorted(results)]
-    return CampaignResult(settings, t, ordered, truth_vector_names(scenario), time.perf_counter() - wall0,
-                          resumed=len(saved), crlb=crlb_value)
+    return CampaignResult(settings, plan.t_grid, ordered, truth_vector_names(scenario), time.perf_counter() - wall0,
+                          resumed=resumed, crlb=crlb_value)
 
 
 def _crlb(plan: RunPlan):

@@ -108,6 +108,24 @@ def _stop(pool: ProcessPoolExecutor) -> None:
         if proc.is_alive():
             proc.kill()
             proc.join(_STOP_WAIT_S)
+    _forget_manager(pool)
+
+
+def _forget_manager(pool: ProcessPoolExecutor) -> None:
+    """Let the pool's manager thread end, and keep Python's exit hook from waking it again.
+
+    At exit, ``concurrent.futures`` wakes every pool's manager thread through a pipe that the thread closes
+    when it ends; on Python 3.11 the two can race, and the exit hook then prints an ``OSError`` traceback
+    ("Bad file descriptor") after the command's one line. A stopped pool's thread has nothing left to do.
+    """
+    import concurrent.futures.process as cfp
+
+    thread = getattr(pool, "_executor_manager_thread", None)  # no public handle
+    if thread is None:
+        return
+    thread.join(_STOP_WAIT_S)
+    if not thread.is_alive():
+        getattr(cfp, "_threads_wakeups", {}).pop(thread, None)
 
 
 def run_jobs(

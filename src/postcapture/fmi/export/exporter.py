@@ -12,7 +12,6 @@ import hashlib
 import logging
 import re
 import shutil
-import tempfile
 import time
 import uuid
 from collections.abc import Callable
@@ -25,7 +24,7 @@ import numpy as np
 from postcapture.config.schema import Scenario
 from postcapture.fmi._extras import import_fmpy
 from postcapture.fmi.mapping import JacobianOutputs, Mapping, mapping_sidecar
-from postcapture.io import check_output_file, write_atomic
+from postcapture.io import check_output_file, scratch_folder, write_atomic
 
 __all__ = ["ExportReport", "export_fmu"]
 
@@ -164,7 +163,7 @@ def export_fmu(
     settings = _Settings(variant, panel_segments, excitation, integrator, step, directional_derivatives, step_jacobian,
                          ident)
     guid = _guid(scenario, settings)
-    with tempfile.TemporaryDirectory(prefix="postcapture_fmu_") as tmp:
+    with scratch_folder("postcapture_fmu") as tmp:  # a killed export's folder goes at the next export
         root = Path(tmp) / "fmu"
         say("writing the sources")
         t0 = time.perf_counter()
