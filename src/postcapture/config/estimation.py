@@ -33,29 +33,36 @@ class StarTrackerSpec(Frozen):
 
 
 class GyroSpec(Frozen):
-    """Overrides of a gyroscope: angle random walk (rad/sqrt(s)), bias walk (rad/s^1.5), initial bias (rad/s)."""
+    """Overrides of a gyroscope: angle random walk (rad/sqrt(s)), bias walk (rad/s^1.5), initial bias (rad/s),
+    scale-factor errors (relative) and the datasheet's 1-sigma of them and of the misalignment."""
 
     sigma_v: quantity("rad/s^0.5", ge=0.0, le=1.0) | None = None
     sigma_u: quantity("rad/s^1.5", ge=0.0, le=1.0) | None = None
     rate: Frequency | None = None
     initial_bias_B: vector("rad/s", 0.01) | None = None
+    scale_factor: vector("1", 0.01) | None = None
+    scale_factor_sigma: quantity("1", ge=0.0, le=0.01) | None = None
+    misalignment_sigma: quantity("rad", ge=0.0, le=0.01) | None = None
     dropout_probability: Probability | None = None
 
 
 class AccelerometerSpec(Frozen):
-    """Overrides of the accelerometer: white noise (m/s^2), bias (m/s^2), bias walk (m/s^2.5)."""
+    """Overrides of the accelerometer: velocity random walk as the white noise of one sample's mean specific
+    force (m/s^2), bias (m/s^2), bias walk (m/s^2.5), scale-factor errors (relative)."""
 
     sigma: quantity("m/s^2", ge=0.0, le=10.0) | None = None
     rate: Frequency | None = None
     bias_B: vector("m/s^2", 1.0) | None = None
     sigma_bias_walk: quantity("m/s^2.5", ge=0.0, le=1.0) | None = None
+    scale_factor: vector("1", 0.01) | None = None
     dropout_probability: Probability | None = None
 
 
 class JointSensorSpec(Frozen):
-    """Overrides of the arm joint-acceleration sensors (rad/s^2)."""
+    """Overrides of the arm's joint encoders: read-out noise and one count (rad)."""
 
-    sigma: quantity("rad/s^2", ge=0.0, le=100.0) | None = None
+    sigma: quantity("rad", ge=0.0, le=0.1) | None = None
+    resolution: quantity("rad", ge=0.0, le=0.1) | None = None
     rate: Frequency | None = None
     dropout_probability: Probability | None = None
 
@@ -139,6 +146,23 @@ class Estimation(Frozen):
     (one prediction and the updates of the samples taken at its end); the process model integrates each
     cycle with ``integrator`` in steps of ``model_step`` (s, a divisor of ``filter_step``). These are
     the filters' own settings; the truth's are ``[simulation]``'s.
+
+    Attributes
+    ----------
+    initial_mass_error : float
+        Added to the nominal target mass to start every mass estimate (kg).
+    filter_step : float
+        The filters' cycle (s); equal to ``[simulation] sample_period``.
+    integrator : str
+        The filters' process model's integrator.
+    model_step : float
+        Its step (s); ``filter_step`` must be a whole multiple of it.
+    seed : int
+        Seed of the sensor noise and the initial attitude errors.
+    sensors : table
+        Overrides of the built-in sensor profiles, ``[estimation.sensors.<profile>.<sensor>]``.
+    tuning : table
+        Filter tunings per profile, ``[estimation.tuning.<profile>]``.
     """
 
     initial_mass_error: quantity("kg", ge=-MAX_MASS, le=MAX_MASS) = -100.0

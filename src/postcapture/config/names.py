@@ -8,7 +8,7 @@ option is refused within a fraction of a second.
 __all__ = ["INTEGRATORS", "VARIANTS", "PROFILES", "MAX_SEGMENTS"]
 
 INTEGRATORS = ("sdirk4", "sdirk3", "sdirk2", "rk4")
-"""Integrators of the plant (``[simulation] integrator`` and ``truth_integrator``)."""
+"""Integrators of the plant (``[simulation] integrator``, the truth's, and ``[estimation] integrator``, the filters')."""
 
 VARIANTS = ("flexible", "stiff", "rigid")
 """Model variants: the flexible model, every spring at 1e7 N m/rad, every joint locked."""
