@@ -369,7 +369,9 @@ def mass_bounds(plan: RunPlan, progress=None) -> dict:
     common = dict(R_star=prof.star_tracker.covariance(), sigma_gyro=prof.gyro.sample_sigma,
                   R_accel=np.concatenate([np.full(3, prof.accelerometer.sigma**2),
                                           np.full(plan.scenario.n_arm, prof.joints.sample_sigma**2)]),
-                  bias_priors=(plan.tuning.gyro_bias_initial_sigma**2, plan.tuning.accelerometer_bias_initial_sigma**2))
+                  bias_priors=(plan.tuning.gyro_bias_initial_sigma**2, plan.tuning.accelerometer_bias_initial_sigma**2),
+                  calibration_priors=((plan.tuning.gyro_scale_sigma**2, plan.tuning.gyro_misalignment_sigma**2)
+                                      if plan.tuning.gyro_scale_sigma > 0 else None))
     dpdm = model.system.dparams_dmass()
     known = mass_crlb(model, x0, dx0, plan.t_grid, directions=dpdm[:, None], mass_gradient=np.ones(1),
                       progress=None if progress is None else (lambda f: progress(0.5 * f)), **common)
