@@ -181,7 +181,6 @@ class AugmentedEKF(FilterBase):
         self._P_init = self.P.copy()
         self._clone = self._clone_values(self.x)
         self._dt = None
-        self._bias_walks: list = []
         nv = n // 2
         Q = np.zeros((N, N))
         noise = np.asarray(tuning.model_noise, dtype=float)
@@ -222,9 +221,6 @@ class AugmentedEKF(FilterBase):
         Q = self._Q_rate.copy()
         Q[self.i_bg, self.i_bg] = tun.sigma_gyro_bias_walk**2 * dt * np.eye(3)
         Q[self.i_ba, self.i_ba] = tun.sigma_accel_bias_walk**2 * dt * np.eye(3)
-        self._bias_walks = [w for w in self._bias_walks if w[2] > t]
-        for index, rate, _ in self._bias_walks:  # a re-opened bias, free to step anywhere in its window
-            Q[index, index] += rate * dt
         self.P = kalman.symmetrize(P + Q)
         self.x = pred.x
         self._dt = dt
@@ -329,23 +325,18 @@ class AugmentedEKF(FilterBase):
     def snapshot(self):
         """The filter's estimate and covariance, to :meth:`restore` (a fault found late is re-processed)."""
         return (self.x.copy(), self.P.copy(), self.gyro_bias.copy(), self.accel_bias.copy(), self.gyro_cal.copy(),
-                self.eta.copy(), self._clone, self._dt, self.t, list(self._bias_walks))
+                self.eta.copy(), self._clone, self._dt, self.t)
 
     def restore(self, snap) -> None:
         """Back to a :meth:`snapshot`."""
-        x, P, bg, ba, cal, eta, self._clone, self._dt, self.t, walks = snap
-        self._bias_walks = list(walks)
+        x, P, bg, ba, cal, eta, self._clone, self._dt, self.t = snap
         self.x, self.P, self.gyro_bias, self.accel_bias = x.copy(), P.copy(), bg.copy(), ba.copy()
         self.gyro_cal, self.eta = cal.copy(), eta.copy()
 
-    def reopen_bias(self, sensor: str, axis: int, sigma: float, until: float | None = None) -> None:
-        """Let a bias (the gyro's or the accelerometer's, on one axis) step by ``sigma`` (1-sigma): at once, or
-        anywhere before ``until`` (s), as a random walk of that total variance spread over the steps to then."""
+    def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
+        """Let a bias (the gyro's or the accelerometer's, on one axis) step now by ``sigma`` (1-sigma)."""
         index = (self.i_bg if sensor == "gyro" else self.i_ba).start + axis
-        if until is None or until <= self.t:
-            self.P[index, index] += sigma**2
-        else:
-            self._bias_walks.append((index, sigma**2 / (until - self.t), until))
+        self.P[index, index] += sigma**2
 
     # ------------------------------------------------------------------ outputs
     @property

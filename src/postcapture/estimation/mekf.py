@@ -217,7 +217,6 @@ class MEKF(FilterBase):
         self.reacquire_bias = float(reacquire_bias)
         self.counts["inputs_missing"] = 0
         self._Q_cache: dict[float, np.ndarray] = {}
-        self._bias_walks: list = []
         try:
             np.linalg.cholesky(self.P)
         except np.linalg.LinAlgError:
@@ -246,11 +245,6 @@ class MEKF(FilterBase):
             Phi[:3, 6:] = Phi6[:3, 3:] @ calibration_sensitivity(w)
         else:
             Phi = Phi6
-        self._bias_walks = [w for w in self._bias_walks if w[2] > t]
-        if self._bias_walks:
-            Q = Q.copy()
-            for index, rate, _ in self._bias_walks:  # a re-opened bias, free to step anywhere in its window
-                Q[index, index] += rate * dt
         _, self.P = kalman.predict(np.zeros(self.m), self.P, Phi, Q)
         self.t = float(t) + dt
         self.check_covariance(self.t, "prediction")
@@ -285,21 +279,16 @@ class MEKF(FilterBase):
 
     def snapshot(self):
         """Attitude, bias, calibration and covariance, to :meth:`restore`."""
-        return self.q_BN.copy(), self.bias_B.copy(), self.calibration.copy(), self.P.copy(), self.t, list(self._bias_walks)
+        return self.q_BN.copy(), self.bias_B.copy(), self.calibration.copy(), self.P.copy(), self.t
 
     def restore(self, snap) -> None:
         """Back to a :meth:`snapshot`."""
-        q, b, c, P, self.t, walks = snap
-        self._bias_walks = list(walks)
+        q, b, c, P, self.t = snap
         self.q_BN, self.bias_B, self.calibration, self.P = q.copy(), b.copy(), c.copy(), P.copy()
 
-    def reopen_bias(self, sensor: str, axis: int, sigma: float, until: float | None = None) -> None:
-        """Let the gyro bias on one axis (``sensor`` is ``"gyro"``) step by ``sigma`` (1-sigma): at once, or
-        anywhere before ``until`` (s), as a random walk of that total variance spread over the steps to then."""
-        if until is None or until <= self.t:
-            self.P[3 + axis, 3 + axis] += sigma**2
-        else:
-            self._bias_walks.append((3 + axis, sigma**2 / (until - self.t), until))
+    def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
+        """Let the gyro bias on one axis (``sensor`` is ``"gyro"``) step now by ``sigma`` (1-sigma)."""
+        self.P[3 + axis, 3 + axis] += sigma**2
 
     def _recover(self, kind: str, t: float) -> None:
         d = np.sqrt(self.policy.inflation)
