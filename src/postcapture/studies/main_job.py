@@ -116,7 +116,7 @@ def simulate_truth(plan: RunPlan, progress: Callable[[float], None] | None = Non
 def draw_sensors(plan: RunPlan, traj, seed: int):
     """The truth's sensor records under the plan's faults, and the filters' initial attitude error (rad, 3)."""
     rng = np.random.default_rng(seed)
-    sensors = measure_all(traj, plan.truth_profile, rng, plan.scenario.faults,
+    sensors = measure_all(traj, plan.truth_profile, rng, plan.faults,
                           accelerometer_position=plan.truth.scenario.chaser.accelerometer_position)
     dq0 = np.linalg.cholesky(plan.tuning.attitude_P0) @ rng.standard_normal(3)
     return sensors, dq0
