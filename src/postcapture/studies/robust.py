@@ -19,6 +19,7 @@ import dataclasses
 
 import numpy as np
 
+from postcapture.config.schema import orbit_mean_motion
 from postcapture.core import rotations as rot
 
 from postcapture.studies.setup import RunPlan
@@ -147,7 +148,7 @@ def _rate_drift_walk(plan: RunPlan, min_time: float) -> float:
     finer_panels = n_seg is not None and any(p.segments != n_seg for _, p in sc.panels())
     horizon = max(plan.duration, sc.simulation.duration)
     est = sc.estimation
-    filters = simulate(sc, duration=horizon, integrator=est.integrator, step=est.model_step)
+    filters = simulate(sc, duration=horizon, integrator=est.integrator, step=est.model_step, side="filters")
     truth = simulate(sc.with_panel_segments(n_seg) if finer_panels else sc, duration=horizon)
     steps = (filters.t - filters.t[0]) / est.filter_step
     late = filters.t >= min(min_time, 0.5 * horizon)
@@ -212,9 +213,10 @@ def discretisation_bias(plan: RunPlan) -> np.ndarray:
         return np.zeros((n_p, plan.t_grid.size))
     truth = simulate(sc.with_panel_segments(n_seg), duration=plan.duration)
     sensors = measure_all(truth, noiseless(plan.filter_profile), np.random.default_rng(0),
-                          accelerometer_position=sc.chaser.accelerometer_position)
+                          accelerometer_position=sc.chaser.accelerometer_position,
+                          mean_motion=orbit_mean_motion(sc, "truth"))
     est = sc.estimation
-    model = NativeProcessModel(build_system(sc), est.model_step, est.integrator)
+    model = NativeProcessModel.for_filters(sc)
     nominal = model.params
     at_nominal = dataclasses.replace(plan, initial_mass=plan.nominal_mass)
     filt = build_augmented(at_nominal, model, truth["q_BN"][:, 0], name="discretisation")
@@ -287,6 +289,7 @@ def build_augmented(plan: RunPlan, model, q0_BN, *, name: str,
         model_noise=model_noise_vector(model, tun.model_noise if model_noise is None else model_noise),
         P0_gyro_scale=tun.gyro_scale_sigma**2,
         P0_gyro_misalignment=tun.gyro_misalignment_sigma**2,
+        mean_motion=orbit_mean_motion(plan.scenario, "filters"),
         gate_probability=tun.gate_probability,
     )
     return AugmentedEKF(model, x0, params=pmap, n_consider=pmap.size - est_map.size, eta0=eta0, P_eta=P_eta, S0=S0,
@@ -315,10 +318,11 @@ def bound_with_model_error(plan: RunPlan, model_noise, progress=None):
     sc = plan.scenario
     est = sc.estimation
     traj = simulate(sc, duration=plan.duration, parameters=plan.truth.parameters, integrator=est.integrator,
-                    step=est.model_step)  # the filters' own model: its estimate never leaves the truth
+                    step=est.model_step, side="filters")  # the filters' own model: its estimate never leaves the truth
     sensors = measure_all(traj, noiseless(plan.filter_profile), np.random.default_rng(0),
-                          accelerometer_position=sc.chaser.accelerometer_position)
-    model = NativeProcessModel(build_system(sc), est.model_step, est.integrator)
+                          accelerometer_position=sc.chaser.accelerometer_position,
+                          mean_motion=orbit_mean_motion(sc, "filters"))
+    model = NativeProcessModel.for_filters(sc)
     nominal = model.params
     estimate, consider = parameter_groups(plan)
     pmap = ParameterMap(model.param_names, nominal, estimate + tuple(g for g in consider if g not in estimate))
@@ -362,7 +366,7 @@ def mass_bounds(plan: RunPlan, progress=None) -> dict:
 
     sc = plan.truth.scenario
     est = plan.scenario.estimation
-    model = NativeProcessModel(plan.truth.build(), est.model_step, est.integrator)
+    model = NativeProcessModel.for_filters(sc, plan.truth.build(), side="truth")
     x0 = model.initial_state()
     dx0 = initial_state_sensitivity(model)
     prof = plan.truth_profile
@@ -376,7 +380,7 @@ def mass_bounds(plan: RunPlan, progress=None) -> dict:
     known = mass_crlb(model, x0, dx0, plan.t_grid, directions=dpdm[:, None], mass_gradient=np.ones(1),
                       progress=None if progress is None else (lambda f: progress(0.5 * f)), **common)
     estimate, consider = parameter_groups(plan)
-    nominal = NativeProcessModel(build_nominal(plan), est.model_step, est.integrator)
+    nominal = NativeProcessModel.for_filters(plan.scenario, build_nominal(plan))
     pmap = ParameterMap(model.param_names, nominal.params, estimate + tuple(g for g in consider if g not in estimate))
     _, P_prior = parameter_prior(plan, pmap, initial_mass=plan.nominal_mass)
     D = pmap.jacobian(pmap.from_model(model.params))
