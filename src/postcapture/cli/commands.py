@@ -241,8 +241,6 @@ def cmd_fmu_export(args) -> int:
     from postcapture.fmi import export_fmu
 
     scenario = load_scenario(args.scenario)
-    if args.fmi != 2:
-        raise ScenarioError([Problem("--fmi", "2 (FMI 3.0 export is not implemented yet)", str(args.fmi))])
     with _display(args, "fmu export") as shown:
         report = export_fmu(scenario, args.output, variant=args.variant, fmi_version=args.fmi,
                             directional_derivatives=not args.no_directional, step_jacobian=not args.no_step_jacobian,
