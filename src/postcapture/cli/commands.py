@@ -136,8 +136,7 @@ def _fmu_cases(cases):
     kept, skipped = default_cases("fmu")
     note = None
     if skipped:
-        note = (f"--plant fmu: runs every case on the FMU's one plant, and an FMU gives the mass only (no "
-                f"parameter Jacobians), so only the reference's dual schemes for the flexible model run "
+        note = (f"--plant fmu: runs every case on the FMU's one plant, so the cases of the flexible model run "
                 f"({', '.join(kept)}); skipped: {', '.join(skipped)}. For the stiff ones, export a stiff "
                 "plant (postcapture fmu export --variant stiff) and pass --cases.")
     return kept, note
