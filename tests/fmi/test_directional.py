@@ -149,3 +149,21 @@ def test_switched_off_in_the_plain_export(rigid_plain_fmu, tmp_path):
         fmu.getDirectionalDerivative([vr["der(v[1])"]], [vr["v[1]"]], [1.0])
     fmu.terminate()
     fmu.freeInstance()
+
+
+def test_declared_dependencies_cover_every_nonzero_partial(setup, envisat_fmu):
+    """ModelStructure's dependencies (what masters build their graphs from) against the partials: a known
+    an unknown does not list has a zero partial (at a state where the joint sines are on)."""
+    fmu, states, inputs, unknowns, x = setup
+    _outputs_at(fmu, states, unknowns, x)
+    md = fmpy.read_model_description(str(envisat_fmu.path))
+    known = states + inputs + fmu.params
+    by_vr = {v.valueReference: v for v in md.modelVariables}
+    listed = {u.variable.valueReference: {d.valueReference for d in u.dependencies}
+              for u in list(md.outputs) + list(md.derivatives)}
+    J = np.array([fmu.getDirectionalDerivative(unknowns, known, list(np.eye(len(known))[j]))
+                  for j in range(len(known))]).T
+    undeclared = [(by_vr[u].name, by_vr[k].name) for i, u in enumerate(unknowns) for j, k in enumerate(known)
+                  if J[i, j] != 0.0 and k not in listed[u]]
+    assert undeclared == []
+    assert sum(len(listed[u]) for u in unknowns) < 0.6 * len(unknowns) * len(known)  # and they are selective
