@@ -44,7 +44,7 @@ logger = logging.getLogger(__name__)
 
 SOURCES = ("pc_model.c", "pc_validate.c", "pc_data.c", "pc_inputs.c", "pc_passive.c", "pc_kinematics.c", "pc_aba.c",
            "pc_rnea.c", "pc_rnea_derivatives.c", "pc_crba.c", "pc_derivatives.c", "pc_liegroup.c", "pc_linalg.c",
-           "pc_integrator.c", "pc_jacobian.c")
+           "pc_integrator.c", "pc_jacobian.c", "pc_gravity.c")
 HEADERS = ("pc_plant.h", "pc_internal.h", "pc_spatial.h")
 # The FMU export compiles the same sources with the same flags, so both run the same arithmetic.
 CFLAGS = ("-O3", "-std=c99", "-fPIC", "-ffp-contract=off", "-fvisibility=hidden")

@@ -89,6 +89,7 @@ _STATUS_CALLS = {
     "pc_set_params": ([_H, _H, _D], 1),
     "pc_get_params": ([_H, _H, _D], 1),
     "pc_set_input_offset": ([_H, _H, _OD], 1),
+    "pc_set_orbit": ([_H, _H, _DBL], 1),
     "pc_set_newton": ([_H, _DBL, _DBL, _INT], 0),
     "pc_inputs": ([_H, _H, _DBL, _INT, _D], 1),
     "pc_inputs_eval": ([_INT, _OI, _OD, _INT, _OD, _OD, _INT, _INT, _D, _INT, _D], None),

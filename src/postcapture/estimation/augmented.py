@@ -37,7 +37,7 @@ from postcapture.core import rotations as rot
 from postcapture.core.errors import CovarianceError, DomainError, SimulationError
 from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy
 from postcapture.core.triad import CALIBRATION_LABELS, calibration_matrix, calibration_sensitivity
-from postcapture.estimation.increments import mean_rate, mean_specific_force
+from postcapture.estimation.increments import mean_rate, mean_specific_force, tidal_mean_B0
 from postcapture.estimation.parameters import ParameterMap
 
 __all__ = ["AugmentedTuning", "AugmentedEKF"]
@@ -66,6 +66,8 @@ class AugmentedTuning:
     P0_gyro_scale, P0_gyro_misalignment : float
         Prior variances of the gyro's scale-factor errors (relative) and misalignments (rad^2); both 0
         (the default): the filter carries no calibration states.
+    mean_motion : float
+        Of the orbit whose tidal field the accelerometer's model takes out (rad/s; 0: free space).
     gate_probability : float or None
     recovery : RecoveryPolicy
     """
@@ -80,6 +82,7 @@ class AugmentedTuning:
     model_noise: float | np.ndarray = 0.0
     P0_gyro_scale: float = 0.0
     P0_gyro_misalignment: float = 0.0
+    mean_motion: float = 0.0
     gate_probability: float | None = 0.9999
     recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
 
@@ -253,6 +256,10 @@ class AugmentedEKF(FilterBase):
         x = self.x
         phi = rot.box_minus(m.attitude(x), q0)
         f, J = mean_specific_force(phi, v0, w0, m.chaser_velocity(x), m.body_rate(x), self.r_accel, self._dt)
+        if self.tuning.mean_motion:  # the reading is the acceleration less the tidal field (the cycle's end position)
+            r1 = m.chaser_position(x)
+            f = f - tidal_mean_B0(q0, r1, m.attitude(x), r1, self.r_accel, self.tuning.mean_motion,
+                                  self.t - self._dt, self.t)
         H = np.zeros((3, N))
         H[:, self.att] = J["att1"]
         H[:, m.tangent_velocity] = J["v1"]
@@ -334,7 +341,7 @@ class AugmentedEKF(FilterBase):
         self.gyro_cal, self.eta = cal.copy(), eta.copy()
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
-        """Add ``sigma^2`` to the variance of a bias: the gyro's or the accelerometer's, on one axis."""
+        """Let a bias (the gyro's or the accelerometer's, on one axis) step now by ``sigma`` (1-sigma)."""
         index = (self.i_bg if sensor == "gyro" else self.i_ba).start + axis
         self.P[index, index] += sigma**2
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from postcapture.core import rotations as rot
 
-__all__ = ["mean_rate", "mean_specific_force"]
+__all__ = ["mean_rate", "mean_specific_force", "tidal_mean_B0"]
 
 
 def mean_rate(q0_BN, q1_BN, dt: float):
@@ -78,4 +78,24 @@ def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
         "w0": R / dt,
     }
     return (Eu1 - u0) / dt, J
+
+
+def tidal_mean_B0(q0_BN, r0_N, q1_BN, r1_N, r_B, mean_motion: float, t0: float, t1: float) -> np.ndarray:
+    """The orbit's tidal acceleration at a point of B averaged over a cycle, in the body frame at its start (3,).
+
+    ``g(x, t) = n^2 (3 (r . x) r - x)`` with ``r = (cos n t, sin n t, 0)`` the zenith in N (the orbit's
+    frame at t = 0, see :class:`postcapture.config.schema.Orbit`), at the point ``r_N + C_NB r_B`` at both
+    ends (trapezoid: the field changes over 0.1 s by a part in 10^4 of itself). An accelerometer reads the
+    specific force, the acceleration less this: ``(mean specific force) = (kinematic mean) - tidal``.
+    Its derivatives (about ``3 n^2``, 3e-6 (m/s^2)/m at 770 km) are left out of the measurement Jacobians.
+    """
+    if not mean_motion:
+        return np.zeros(3)
+    n2 = mean_motion**2
+    total = np.zeros(3)
+    for q, r, t in ((q0_BN, r0_N, t0), (q1_BN, r1_N, t1)):
+        p = np.asarray(r, dtype=float) + rot.dcm_from_quat(q).T @ np.asarray(r_B, dtype=float)
+        z = np.array([np.cos(mean_motion * t), np.sin(mean_motion * t), 0.0])
+        total += n2 * (3.0 * z * (z @ p) - p)
+    return rot.dcm_from_quat(q0_BN) @ (0.5 * total)
 

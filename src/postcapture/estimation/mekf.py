@@ -287,7 +287,7 @@ class MEKF(FilterBase):
         self.q_BN, self.bias_B, self.calibration, self.P = q.copy(), b.copy(), c.copy(), P.copy()
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
-        """Add ``sigma^2`` to the variance of the gyro bias on one axis (``sensor`` is ``"gyro"``)."""
+        """Let the gyro bias on one axis (``sensor`` is ``"gyro"``) step now by ``sigma`` (1-sigma)."""
         self.P[3 + axis, 3 + axis] += sigma**2
 
     def _recover(self, kind: str, t: float) -> None:
