@@ -9,6 +9,7 @@ import fmpy  # noqa: F401 - the fmi extra is part of the test install
 from fmi_helpers import rel, native_model  # noqa: E402
 from tiny_fmu import I1, I3, build_tiny_fmu  # noqa: E402
 
+from postcapture.core.errors import FMIError  # noqa: E402
 from postcapture.core.rotations import compose, exp_map  # noqa: E402
 from postcapture.dynamics.build import build_system  # noqa: E402
 from postcapture.estimation.process import ProcessModel  # noqa: E402
@@ -60,6 +61,7 @@ def test_protocol_and_conventions(fmu_model, native):
     np.testing.assert_array_equal(fmu_model.attitude(x1), native.attitude(x1))
     np.testing.assert_array_equal(fmu_model.body_rate(x1), native.body_rate(x1))
     np.testing.assert_array_equal(fmu_model.chaser_velocity(x1), native.chaser_velocity(x1))
+    np.testing.assert_array_equal(fmu_model.chaser_position(x1), native.chaser_position(x1))
     np.testing.assert_array_equal(fmu_model.arm_angles(x1), native.arm_angles(x1))
     assert fmu_model.tangent_velocity == native.tangent_velocity
     np.testing.assert_array_equal(fmu_model.tangent_arm, native.tangent_arm)
@@ -173,6 +175,12 @@ def test_generic_quaternion_fmu(tiny_dir):
         x0 = model.initial_state()
         p = model.predict(x0, 0.0, 2.0, jacobians=True)
         assert model.jacobian_method == "finite_differences"
+        # no position in a quaternion state: the recommended schemes cannot take the orbit's field out
+        assert not any("chaser's position" in m for m in model.missing("dual"))
+        assert any("chaser's position" in m for m in model.missing("dual", orbit=True))
+        assert not any("chaser's position" in m for m in model.missing("reference_dual", orbit=True))
+        with pytest.raises(FMIError, match="free_flyer"):
+            model.chaser_position(x0)
     truth = _axisymmetric(x0, 2.0)
     assert np.abs(p.x - truth).max() <= 1e-10
     eps = 1e-7

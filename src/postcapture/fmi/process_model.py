@@ -360,7 +360,7 @@ class FMUProcessModel:
         self.slave.set_real(self._p_buf)
         self._params = p
 
-    def missing(self, scheme: str, parameter_names=()) -> list[str]:
+    def missing(self, scheme: str, parameter_names=(), *, orbit: bool = False) -> list[str]:
         """What a scheme needs that this FMU and its mapping do not give (empty when it can run).
 
         Parameters
@@ -369,6 +369,8 @@ class FMUProcessModel:
             The reference's dual scheme (attitude filter and mass filter) or a recommended one.
         parameter_names : sequence of str
             The parameters the recommended schemes estimate or consider (postcapture's names).
+        orbit : bool
+            Whether the filters model the orbit's gravity gradient (they then read the chaser's position).
 
         Returns
         -------
@@ -382,6 +384,8 @@ class FMUProcessModel:
             need.append("[state] velocity: the chaser's linear velocity (B frame, m/s) in the state")
         if self.accelerometer_position is None:
             need.append("[measurement] accelerometer_position: where the accelerometer sits in B (m)")
+        if orbit and scheme != "reference_dual" and self.kinematics.name != "free_flyer":
+            need.append("the chaser's position (a free_flyer state): the filters model the orbit's field")
         if scheme == "reference_dual":
             if self._mass_buf is None and not (self.mapping.mass_from_parameters and self._hub is not None):
                 need.append("[parameters] mass: a variable that is the target's mass, or inputs with mass_offset")
@@ -467,6 +471,13 @@ class FMUProcessModel:
     def body_rate(self, x) -> np.ndarray:
         """Chaser body rate ``omega_BN_B`` (rad/s)."""
         return np.asarray(x, dtype=float)[self._rate]
+
+    def chaser_position(self, x) -> np.ndarray:
+        """Position of the chaser's origin in N (m): a free-flyer state's first entries."""
+        if self.kinematics.name != "free_flyer":
+            raise FMIError("the chaser's position is known for a free_flyer state only", fmu=self.label,
+                           function="mapping")
+        return np.asarray(x, dtype=float)[0:3]
 
     def chaser_velocity(self, x) -> np.ndarray:
         """Velocity of the chaser's origin, body components (m/s)."""

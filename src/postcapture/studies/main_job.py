@@ -152,7 +152,6 @@ def _run_case_unguarded(plan: RunPlan, case: str, sensors, q0_true, dq0, progres
     scenario = plan.scenario
     spec = CASES[case]
     theta0 = plan.initial_mass
-    est = scenario.estimation
     native = NativeProcessModel.for_filters(scenario, variant=spec.variant, name=spec.name)
     q0 = rot.box_plus(np.asarray(q0_true, dtype=float), dq0)
     t_grid = plan.t_grid
@@ -191,7 +190,7 @@ def _fmu_plant(plan: RunPlan, spec, native):
     if spec.scheme != "reference_dual":
         groups = set(sum(parameter_groups(plan), ()))
         names = tuple(n for n in native.param_names if group_of(n) in groups)
-    missing = model.missing(spec.scheme, names)
+    missing = model.missing(spec.scheme, names, orbit=orbit_mean_motion(plan.scenario, "filters") > 0.0)
     if not missing:
         return model
     model.close()
