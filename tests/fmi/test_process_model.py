@@ -12,6 +12,7 @@ from tiny_fmu import I1, I3, build_tiny_fmu  # noqa: E402
 from postcapture.core.errors import FMIError  # noqa: E402
 from postcapture.core.rotations import compose, exp_map  # noqa: E402
 from postcapture.dynamics.build import build_system  # noqa: E402
+from postcapture.dynamics.process_model import NativeProcessModel  # noqa: E402
 from postcapture.estimation.process import ProcessModel  # noqa: E402
 from postcapture.fmi import FMUProcessModel  # noqa: E402
 
@@ -202,3 +203,45 @@ def test_fmi3_fmu(tiny_dir):
         p = model.predict(x0, 0.0, 2.0, jacobians=True)
     assert np.abs(p.x - _axisymmetric(x0, 2.0)).max() <= 1e-10
     assert p.F.shape == (6, 6) and np.isfinite(p.F).all()
+
+
+def test_plant_in_the_filters_orbit(envisat_dict, tmp_path):
+    """With ``[orbit] filters = "model"`` the exported plant feels the gravity gradient as the filters' native
+    model does (the same core: states and Jacobians to 1e-12), the field changes a step, and the accelerations
+    list the root's pose among their dependencies: a step's velocities change with the position alone."""
+    import fmpy
+
+    from postcapture.config import scenario_from_dict
+    from postcapture.fmi import export_fmu
+
+    envisat_dict["orbit"]["filters"] = "model"
+    sc = scenario_from_dict(envisat_dict)
+    report = export_fmu(sc, tmp_path / "orbit.fmu", variant="rigid")
+    native = NativeProcessModel.for_filters(sc, variant="rigid")
+    x = native.initial_state()
+    for k in range(50):
+        x = native.predict(x, k * 0.1, 0.1).x
+    ref = native.predict(x, 5.0, 0.1, jacobians=True)
+    envisat_dict["orbit"]["filters"] = "cover"
+    free = NativeProcessModel.for_filters(scenario_from_dict(envisat_dict), variant="rigid").predict(x, 5.0, 0.1)
+    assert rel(free.x, ref.x) > 1e-9  # the field matters over one step
+    dx = np.zeros(native.n)
+    dx[0:3] = 10.0  # m: the chaser's origin moved in its body frame, nothing else
+    shifted = native.retract(x, dx)
+    vel = slice(native.nq, native.nx)
+    with FMUProcessModel(report.path) as model:
+        got = model.predict(x, 5.0, 0.1, jacobians=True)
+        moved = model.predict(shifted, 5.0, 0.1).x
+    assert rel(got.x, ref.x) <= 1e-12
+    for name in ("F", "G", "H", "Hp"):
+        assert rel(getattr(got, name), getattr(ref, name)) <= 1e-12, name
+    assert rel(moved, native.predict(shifted, 5.0, 0.1).x) <= 1e-12
+    assert np.abs(moved[vel] - got.x[vel]).max() > 1e3 * np.finfo(float).eps * np.abs(got.x[vel]).max()
+    with FMUProcessModel(report.path, jacobians="directional") as model:
+        got = model.predict(x, 5.0, 0.1, jacobians=True)
+    assert rel(got.H, ref.H) <= 1e-8 and rel(got.Hp, ref.Hp) <= 1e-8
+    rows = np.r_[native.tangent_attitude, native.tangent_rate]
+    assert rel(got.F[np.ix_(rows, rows)], ref.F[np.ix_(rows, rows)]) <= 1e-2
+    md = fmpy.read_model_description(str(report.path))
+    deps = {u.variable.name: {d.name for d in u.dependencies} for u in md.outputs}
+    assert {"q[1]", "q[2]", "q[3]", "q[4]", "q[7]"} <= deps["accel_B_x"]

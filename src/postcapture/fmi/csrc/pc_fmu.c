@@ -3,7 +3,8 @@
  *
  * The plant is the core of postcapture.dynamics (dynamics/csrc, compiled into this library with the
  * model's packed arrays from the generated pc_fmu_data.h): the same integrator, Newton policy, warm
- * start, step rule, outputs and Jacobians as the native process model.
+ * start, step rule, outputs and Jacobians as the native process model, in the filters' orbit (the
+ * gravity gradient of PC_ORBIT_N when the scenario's filters model it; free space otherwise).
  *
  * Variables (value-reference blocks of pc_fmu_data.h): the state x = [q, v] (outputs), its ambient
  * derivative (locals), the named outputs, the parameter vector p (inputs held constant over a step, so
@@ -110,9 +111,15 @@ pc_fmu_t* pc_fmu_new(const char* function, const char* name, pc_fmu_logger_t log
     F->m = pc_model_create(PC_IB, PC_DB, sizeof PC_IB / sizeof PC_IB[0], sizeof PC_DB / sizeof PC_DB[0], PC_STAGES,
                            &PC_TAB_A[0][0], PC_TAB_B, PC_TAB_C, err, sizeof err);
     F->d = F->m ? pc_data_create(F->m) : NULL;
+    if (F->d && PC_ORBIT_N > 0.0 && pc_set_orbit(F->m, F->d, PC_ORBIT_N)) {
+        snprintf(err, sizeof err, "the orbit was refused: %s", pc_error_message(F->d));
+        pc_data_destroy(F->d);
+        F->d = NULL;
+    }
     if (!F->name || !F->m || !F->d) {
         if (log) {
-            snprintf(buf, sizeof buf, "%s: the plant could not be created: %s", function, F->m ? "out of memory" : err);
+            snprintf(buf, sizeof buf, "%s: the plant could not be created: %s", function,
+                     err[0] ? err : "out of memory");
             log(env, name, PC_FMU_ERROR, "logStatusError", buf);
         }
         pc_fmu_free(F);
@@ -349,7 +356,11 @@ static int directional_outputs(pc_fmu_t* F, const double* dx, const double* dd, 
 }
 
 /* Continuous partials of the ambient state derivative and of the named outputs for an ambient state
- * direction dx, an input direction du and a parameter direction dp, exact (the core's partials). */
+ * direction dx, an input direction du and a parameter direction dp: the core's partials, exact in free
+ * space. In an orbit (PC_ORBIT_N > 0) they leave out the gravity gradient's own partials (of order n^2: on
+ * Envisat's rigid plant 1e-6 to 1e-5 1/s^2 per m or rad of the root's pose, which they give as zero), as
+ * the native process model's Jacobians do; the model description lists the pose all the same, since the
+ * accelerations depend on it. update_outputs (pc_sample) sets the field's time to the current one. */
 static int directional(pc_fmu_t* F, const double* dx, const double* du, const double* dp, double* dxdot, double* dy) {
     const double* q = F->c.x;
     const double* v = F->c.x + NQ;
@@ -364,7 +375,7 @@ static int directional(pc_fmu_t* F, const double* dx, const double* du, const do
     if (err) return 1;
     for (i = 0; i < NV; i++) {
         double s = 0.0;
-        for (j = 6; j < NV; j++) s += Aq[i * NV + j] * dx[j + off]; /* no gravity: the root pose does not enter */
+        for (j = 6; j < NV; j++) s += Aq[i * NV + j] * dx[j + off]; /* the root's columns are zero (above) */
         for (j = 0; j < NV; j++) s += Av[i * NV + j] * dv[j];
         for (j = 0; j < PC_NU; j++) s += Au[i * PC_NU + j] * du[j];
         for (j = 0; j < NP; j++) s += Ap[i * NP + j] * dp[j];

@@ -49,8 +49,10 @@ def write_c_header(
     step: float,
     x0: np.ndarray,
     directional: bool,
+    orbit_mean_motion: float = 0.0,
 ) -> str:
-    """The text of ``pc_fmu_data.h``."""
+    """The text of ``pc_fmu_data.h``; ``orbit_mean_motion`` (rad/s) is the orbit whose gravity gradient the
+    plant feels (0: free space)."""
     b = interface.blocks
     packed = plant.packed
     n_param_vector = len(plant.parameters)
@@ -72,6 +74,7 @@ def write_c_header(
         f"#define PC_DIRECTIONAL {int(directional)}",
         f"#define PC_STEP_JACOBIAN {int(interface.step_jacobian)}",
         f"#define PC_STEP {_num(step)}",
+        f"#define PC_ORBIT_N {_num(orbit_mean_motion)}",
         f"#define PC_MAX_COMM_STEP {_num(MAX_COMM_STEP)}",
         f"#define PC_STAGES {tableau.stages}",
         f"#define PC_NVARS {len(interface.variables)}",

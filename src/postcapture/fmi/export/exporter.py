@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postcapture.config.schema import Scenario
+from postcapture.config.schema import Scenario, orbit_mean_motion
 from postcapture.fmi._extras import import_fmpy
 from postcapture.fmi.mapping import JacobianOutputs, Mapping, mapping_sidecar
 from postcapture.io import check_output_file, scratch_folder, write_atomic
@@ -101,6 +101,9 @@ def export_fmu(
 ) -> ExportReport:
     """Export the plant of a scenario as a co-simulation FMU.
 
+    The plant is the filters' process model of the scenario: its ``[estimation]`` integrator and step,
+    and the orbit's gravity gradient when ``[orbit] filters = "model"`` (free space otherwise).
+
     Parameters
     ----------
     scenario : Scenario, str or Path
@@ -166,7 +169,7 @@ def export_fmu(
     q0, v0 = initial_state(system)
     plant = ExportPlant(system)
     settings = _Settings(variant, panel_segments, excitation, integrator, step, directional_derivatives, step_jacobian,
-                         ident, version.number)
+                         ident, version.number, orbit_mean_motion(scenario, "filters"))
     guid = _guid(scenario, settings)
     with scratch_folder("postcapture_fmu") as tmp:  # a killed export's folder goes at the next export
         root = Path(tmp) / "fmu"
@@ -204,6 +207,7 @@ class _Settings:
     step_jacobian: bool
     ident: str
     fmi_version: int
+    orbit: float  # rad/s: the mean motion of the orbit the filters' plant feels (0: free space)
 
 
 def _check_settings(scenario: Scenario, fmi_version, integrator, step) -> tuple[str, float]:
@@ -226,7 +230,7 @@ def _guid(scenario: Scenario, s: _Settings) -> str:
 
     key = hashlib.sha256("|".join([
         scenario.model_dump_json(), s.variant, str(s.panel_segments), str(s.excitation), s.integrator, repr(s.step),
-        str(s.directional), str(s.step_jacobian), s.ident, str(s.fmi_version), __version__,
+        str(s.directional), str(s.step_jacobian), s.ident, str(s.fmi_version), repr(s.orbit), __version__,
     ]).encode()).hexdigest()
     return "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "postcapture:" + key)) + "}"
 
@@ -244,7 +248,7 @@ def _write_sources(fmpy, sources: Path, plant, x0: np.ndarray, guid: str, s: _Se
     interface = build_interface(plant, x0, step_jacobian=s.step_jacobian, n_y=len(plant.output_signals()),
                                 n_z=3 + plant.n_arm, independent_time=version.independent_time)
     header = write_c_header(plant, interface, guid=guid, tableau=TABLEAUX[s.integrator], step=s.step, x0=x0,
-                            directional=s.directional)
+                            directional=s.directional, orbit_mean_motion=s.orbit)
     (sources / "pc_fmu_data.h").write_text(header)
     for name, text in source_files().items():
         (sources / name).write_text(text)
@@ -287,7 +291,7 @@ def _write_description(root: Path, scenario: Scenario, interface, plant, guid: s
         scenario=scenario.name,
         internal_step=s.step,
     )
-    deps = dependencies(interface, plant)
+    deps = dependencies(interface, plant, orbit=s.orbit > 0.0)
     if version.number == 3:
         text = write_model_description3(interface, info, deps)
         (root / "sources" / "buildDescription.xml").write_text(write_build_description(s.ident, list(sources)))

@@ -8,9 +8,10 @@ initialisation mode too: the states are the variables with ``initial="exact"``);
 the reset flag and the Jacobian request act only at the next step, and the Jacobian outputs describe the
 last step: they depend on no known.
 
-The lists follow the plant's equations (the same ones as the directional derivatives of ``pc_fmu.c``):
-without gravity the root's pose does not enter the accelerations, which depend on the joint angles, every
-velocity, the inputs and the parameters; the kinematic outputs depend on the coordinates they read.
+The lists follow the plant's equations (the ones the directional derivatives of ``pc_fmu.c`` differentiate):
+the accelerations depend on the joint angles, every velocity, the inputs and the parameters, and on the
+root's pose only in an orbit (its gravity gradient: listed, though the directional derivatives leave the
+field's partials out, of order n^2); the kinematic outputs depend on the coordinates they read.
 """
 
 from __future__ import annotations
@@ -21,8 +22,8 @@ from postcapture.fmi.export.plant_info import ExportPlant
 __all__ = ["dependencies"]
 
 
-def dependencies(interface: Interface, plant: ExportPlant) -> dict[int, list[int]]:
-    """Value references of the knowns each unknown depends on.
+def dependencies(interface: Interface, plant: ExportPlant, *, orbit: bool = False) -> dict[int, list[int]]:
+    """Value references of the knowns each unknown depends on (``orbit``: the plant feels a gravity gradient).
 
     Returns
     -------
@@ -46,6 +47,8 @@ def dependencies(interface: Interface, plant: ExportPlant) -> dict[int, list[int
 
     joints = q(*range(7, nq))
     accel = joints + v(*range(nv)) + block("u") + block("p")  # what the accelerations depend on
+    if orbit:
+        accel = q(*range(7)) + accel
     deps: dict[int, list[int]] = {}
     for i in range(nq):  # der(q): dp/dt = R(quat) v_lin, dquat/dt = quat (w, 0) / 2, de/dt = v_e
         if i < 3:
