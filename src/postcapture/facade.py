@@ -338,10 +338,10 @@ def calibrate_panel(panel="envisat", *, segments: int = 5, weights: Sequence[flo
     return calibrate(panel, segments=segments, weights=tuple(weights), reference=reference, progress=report)
 
 
-def export_fmu(scenario, path, *, variant: str = "flexible", directional_derivatives: bool = True,
+def export_fmu(scenario, path, *, variant: str = "flexible", fmi_version: int = 2, directional_derivatives: bool = True,
                step_jacobian: bool = True, panel_segments: int | None = None,
                progress: Progress | None = None):
-    """Export a scenario's plant as an FMI 2.0 co-simulation FMU (compiled C, no Python inside).
+    """Export a scenario's plant as an FMI 2.0 or 3.0 co-simulation FMU (compiled C, no Python inside).
 
     Calls :func:`postcapture.fmi.export_fmu`, where the other options are.
 
@@ -351,8 +351,10 @@ def export_fmu(scenario, path, *, variant: str = "flexible", directional_derivat
     path : str or Path
         The ``.fmu`` file; the variable mapping is written next to it.
     variant : {"flexible", "stiff", "rigid"}, optional
+    fmi_version : {2, 3}, optional
+        FMI 2.0 or 3.0 co-simulation (the same plant and variables).
     directional_derivatives : bool, optional
-        Provide ``fmi2GetDirectionalDerivative``.
+        Provide directional derivatives.
     step_jacobian : bool, optional
         Add the exact step and measurement Jacobian outputs.
     panel_segments : int, optional
@@ -372,7 +374,8 @@ def export_fmu(scenario, path, *, variant: str = "flexible", directional_derivat
         phases.append(message)
         progress("fmu export", min(len(phases) - 1, _EXPORT_PHASES) / _EXPORT_PHASES)
 
-    result = export(load_scenario(scenario), path, variant=variant, directional_derivatives=directional_derivatives,
+    result = export(load_scenario(scenario), path, variant=variant, fmi_version=fmi_version,
+                    directional_derivatives=directional_derivatives,
                     step_jacobian=step_jacobian, panel_segments=panel_segments,
                     progress=None if progress is None else report)
     if progress is not None:

@@ -211,7 +211,7 @@ BAD_OPTIONS = [
     ("panel", "calibrate", "--panel", "/nonexistent.toml"), ("panel", "calibrate", "--segments", "0"),
     ("panel", "calibrate", "--weights", "1,-2"), ("panel", "calibrate", "--weights", "nan"),
     ("panel", "calibrate", "--reference", "/nonexistent.op2"), ("panel", "calibrate", "--out", "/dev/null"),
-    ("fmu", "export", "-o", "x.fmu", "--fmi", "3"), ("fmu", "export", "-o", "/dev/null"), ("fmu", "export", "-o", ""),
+    ("fmu", "export", "-o", "x.fmu", "--fmi", "1"), ("fmu", "export", "-o", "/dev/null"), ("fmu", "export", "-o", ""),
     ("fmu", "export", "-o", "x.fmu", "--panel-segments", "0"), ("fmu", "export", "-o", "x.fmu", "--variant", "x"),
     ("fmu", "export"), ("fmu", "info", "/nonexistent.fmu"), ("fmu", "info", "/dev/null"),
     ("bench", "--scenario", "nope"), ("bench", "--duration", "0"),

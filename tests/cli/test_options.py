@@ -38,8 +38,9 @@ def test_choices_are_the_schemas():
     parser = build_parser()
     for integrator in INTEGRATORS:  # sdirk4, the accurate truth's integrator, was refused
         assert parser.parse_args(["simulate", "--integrator", integrator]).integrator == integrator
+    assert parser.parse_args(["fmu", "export", "--fmi", "3", "-o", "x.fmu"]).fmi == 3  # implemented now
     with pytest.raises(SystemExit):
-        parser.parse_args(["fmu", "export", "--fmi", "3", "-o", "x.fmu"])  # offered and not implemented before
+        parser.parse_args(["fmu", "export", "--fmi", "1", "-o", "x.fmu"])
     for profile in PROFILES:
         assert parser.parse_args(["run", "--profile", profile]).profile == profile
 
@@ -56,5 +57,5 @@ def test_help_texts_agree_with_the_library(monkeypatch):
     for text in (run, campaign):
         assert "added to the nominal target mass" in text and "true mass" not in text
     assert "Pinocchio" not in run
-    assert "FMI version (2.0; 3.0 export is not implemented)" in _help("fmu", "export")
+    assert "FMI version: 2 (2.0) or 3 (3.0)" in _help("fmu", "export")
     assert "sdirk4" in _help("simulate")

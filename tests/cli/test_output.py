@@ -54,6 +54,6 @@ def test_an_fmu_plant_says_which_cases_it_skips(capsys, tmp_path, monkeypatch):
     assert code == 1  # the note comes first
     err = capsys.readouterr().err
     assert err.startswith("note: --plant fmu:")
-    assert "skipped: dual, joint, ekf_stiff, mekf_stiff" in " ".join(err.split())
+    assert "skipped: ekf_stiff, mekf_stiff" in " ".join(err.split())
     note = err.split("postcapture: error:")[0]  # the error names a long temporary path; the note must fit
     assert max(len(line) for line in note.splitlines()) <= 80

@@ -1,7 +1,7 @@
 """Shared FMUs for the FMI tests: exported once per session into a temporary folder.
 
-``envisat_fmu`` is the default scenario (flexible, directional derivatives and Jacobian outputs); it
-takes about half a minute to build, once. ``rigid_plain_fmu`` is the rigid variant without
+``envisat_fmu`` is the default scenario (flexible, directional derivatives and Jacobian outputs), and
+``envisat_fmu3`` the same as FMI 3.0; each takes a few seconds to build, once. ``rigid_plain_fmu`` is the rigid variant without
 directional derivatives or Jacobian outputs (a few seconds), for the finite-difference fallback.
 """
 
@@ -16,6 +16,15 @@ def envisat_fmu(tmp_path_factory, envisat):
 
     out = tmp_path_factory.mktemp("fmu") / "envisat.fmu"
     return export_fmu(envisat, out)
+
+
+@pytest.fixture(scope="session")
+def envisat_fmu3(tmp_path_factory, envisat):
+    """ExportReport of the default scenario's FMU as FMI 3.0 co-simulation (flexible)."""
+    from postcapture.fmi import export_fmu
+
+    out = tmp_path_factory.mktemp("fmu3") / "envisat3.fmu"
+    return export_fmu(envisat, out, fmi_version=3)
 
 
 @pytest.fixture(scope="session")

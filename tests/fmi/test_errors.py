@@ -11,7 +11,7 @@ import fmpy  # noqa: F401 - the fmi extra is part of the test install
 
 from tiny_fmu import MAPPING, build_tiny_fmu  # noqa: E402
 
-from postcapture.core.errors import DimensionError, FMIError  # noqa: E402
+from postcapture.core.errors import DimensionError, DomainError, FMIError  # noqa: E402
 from postcapture.fmi import FMUProcessModel, Mapping, fmu_info  # noqa: E402
 
 
@@ -115,8 +115,11 @@ def test_states_cannot_be_set_after_initialisation(envisat_fmu, tmp_path):
 
 def test_out_of_range_mass_and_bad_shapes(envisat_fmu):
     with FMUProcessModel(envisat_fmu.path) as model:
-        with pytest.raises(FMIError, match="fmi2SetReal returned Error"):
-            model.mass = 100.0  # below the target panels' 350 kg
+        with pytest.raises(DomainError, match="target_mass: expected more than the panels' 350"):
+            model.mass = 100.0  # below the target panels' 350 kg: refused before it reaches the FMU
+        with pytest.raises(DomainError, match="expected scales >= 0"):
+            model.set_params(np.r_[model.params[:-1], -1.0])
+        model.predict(model.initial_state(), 0.0, 0.1)  # the FMU was never in error
         with pytest.raises(DimensionError, match=r"x: expected shape \(51,\)"):
             model.predict(np.zeros(50), 0.0, 0.1)
     with pytest.raises(FMIError, match="closed"):

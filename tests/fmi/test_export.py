@@ -40,21 +40,41 @@ def test_validate_reports_no_problem(envisat_fmu):
     assert validate_fmu(str(envisat_fmu.path)) == []
 
 
-def test_model_description(envisat_fmu):
+def test_model_description(envisat_fmu, envisat):
     md = fmpy.read_model_description(str(envisat_fmu.path))
     cs = md.coSimulation
     assert cs.providesDirectionalDerivative and cs.canGetAndSetFMUstate and cs.canSerializeFMUstate
+    assert cs.canHandleVariableCommunicationStepSize
     var = {v.name: v for v in md.modelVariables}
-    assert var["target_mass"].causality == "parameter" and var["target_mass"].variability == "tunable"
-    assert var["target_mass"].unit == "kg" and var["arm.stiffness_scale"].unit == "1"
-    assert var["target.I_xx"].unit == "kg.m2" and var["envisat_wing.bending_scale"].variability == "tunable"
+    names = build_system(envisat).parameter_names
+    for name in names:  # the parameter vector: inputs, so that their partials are directional derivatives
+        assert (var[name].causality, var[name].variability) == ("input", "continuous"), name
+    assert "target_mass" not in var
+    assert var["target.m"].unit == "kg" and var["arm.stiffness_scale"].unit == "1"
+    assert var["target.I_xx"].unit == "kg.m2"
     assert var["force_x"].causality == "input" and var["joint_7"].unit == "N.m"
     assert var["accel_B_x"].unit == "m/s2" and var["q_BN_w"].causality == "output"
     assert var["x_corr[51]"].causality == "input" and var["reset"].causality == "input"
     assert len(md.derivatives) == envisat_fmu.n_states
-    assert {u.variable.name for u in md.outputs} >= {"q[1]", "accel_B_z", "F[50,50]", "h[10]"}
-    deps = {u.variable.name: u.dependencies for u in md.outputs}
-    assert deps["F[1,1]"] == []
+    assert {u.variable.name for u in md.outputs} >= {"q[1]", "accel_B_z", "F[50,50]", f"G[50,{len(names)}]",
+                                                    f"Hp[10,{len(names)}]", "jacobian_valid"}
+    assert var["jacobian_valid"].variability == "discrete"
+
+
+def test_model_structure_lists_every_dependency(envisat_fmu, envisat):
+    """Every output, derivative and initial unknown carries its dependencies (OMSimulator spent 90 s at
+    load on an FMU where none did); they name the knowns the FMU's own directional derivatives say."""
+    md = fmpy.read_model_description(str(envisat_fmu.path))
+    for group in (md.outputs, md.derivatives, md.initialUnknowns):
+        assert group and all(u.dependencies is not None for u in group)
+    deps = {u.variable.name: {d.name for d in u.dependencies} for u in md.outputs}
+    init = {u.variable.name: {d.name for d in u.dependencies} for u in md.initialUnknowns}
+    assert deps["F[1,1]"] == set() and deps["jacobian_valid"] == set() and deps["q[4]"] == set()
+    assert deps["q_BN_w"] == {"q[4]", "q[5]", "q[6]", "q[7]"}
+    assert {"force_x", "joint_3", "target.m", "arm.stiffness_scale", "v[20]", "q[20]"} <= deps["accel_B_x"]
+    assert not {"x_corr[1]", "reset", "jacobian_request", "q[1]"} & deps["accel_B_x"]
+    assert init["accel_B_x"] == deps["accel_B_x"] and init["der(v[3])"] == deps["accel_B_x"]
+    assert init["der(q[9])"] == {"v[8]"}
 
 
 def _fmu_trajectory(path, names):
@@ -63,20 +83,22 @@ def _fmu_trajectory(path, names):
 
 
 def test_simulate_fmu_matches_native(envisat, envisat_fmu):
-    """Same integrator (SDIRK3) and step (0.1 s) as a converged native run: 1e-8 agreement.
+    """Same integrator and internal step as a converged run of the Python oracle: 1e-8 agreement.
 
-    The native Newton iterations converge to round-off as the FMU's do; each block of the state and each
-    output agrees to 1e-8 of its range.
+    The oracle's Newton iterations converge to round-off as the FMU's do; each block of the state and each
+    output agrees to 1e-8 of its range. The FMU takes each 0.1 s communication step as whole internal steps.
     """
     system = build_system(envisat)
     q, v = initial_state(system)
-    integ = make_integrator(system, "sdirk3", newton_tol=1e-15, reuse_jacobian=1)
+    h = envisat_fmu.step
+    per = int(round(0.1 / h))
+    integ = make_integrator(system, envisat_fmu.integrator, newton_tol=1e-15, reuse_jacobian=1)
     n = int(round(DURATION / 0.1)) + 1
     rec = OutputRecorder(system, n)
     X = np.zeros((system.nq + system.nv, n))
     for k in range(n):
-        if k:
-            q, v = integ.step(q, v, (k - 1) * 0.1, 0.1)
+        for i in range(per if k else 0):
+            q, v = integ.step(q, v, (k - 1) * 0.1 + i * h, h)
         X[:, k] = np.concatenate([q, v])
         rec.record(k, q, v, k * 0.1)
     names = [f"q[{i + 1}]" for i in range(system.nq)] + [f"v[{i + 1}]" for i in range(system.nv)]
@@ -113,13 +135,15 @@ def test_simulate_fmu_matches_native(envisat, envisat_fmu):
 
 
 def test_simulate_fmu_against_simulate_system(envisat, envisat_fmu):
-    """Against the default native run: the same compiled core, default settings on both sides.
+    """Against the default native run: the same compiled core, default settings on both sides, the same
+    internal step.
 
     The state, attitude, rates and chaser acceleration agree to 1e-12 of their ranges.
     """
     system = build_system(envisat)
     q0, v0 = initial_state(system)
-    traj = simulate_system(system, q0, v0, DURATION, step=0.1, sample_period=0.1, integrator="sdirk3")
+    traj = simulate_system(system, q0, v0, DURATION, step=envisat_fmu.step, sample_period=0.1,
+                           integrator=envisat_fmu.integrator)
     names = [f"q[{i + 1}]" for i in range(system.nq)] + [f"v[{i + 1}]" for i in range(system.nv)]
     extra = [
         "q_BN_w",

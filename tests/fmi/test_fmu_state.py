@@ -1,7 +1,11 @@
-"""Get, set and serialise the FMU state: a restored run repeats the original bit for bit.
+"""Get, set and serialise the FMU state: a restored run repeats the original bit for bit, and a state
+holding a zero, non-unit or NaN quaternion is refused.
 
 FMPy's test_fmu_state.py is the model; the state is restored in the same instance and in a fresh one.
 """
+
+import ctypes
+import math
 
 import numpy as np
 import pytest
@@ -47,7 +51,7 @@ def test_set_state_repeats_the_run(envisat_fmu, tmp_path):
     assert np.array_equal(first, again)
     # a changed parameter and a correction are part of the state too
     fmu.setFMUstate(state)
-    fmu.setReal([vr["target_mass"]], [6000.0])
+    fmu.setReal([vr["target.m"]], [6000.0])
     changed = _run(fmu, out, 100, 110)
     assert not np.array_equal(changed, first[:10])
     fmu.setFMUstate(state)
@@ -82,3 +86,45 @@ def test_foreign_serialized_state_is_refused(envisat_fmu, rigid_plain_fmu, tmp_p
     other, _, _ = _instance(rigid_plain_fmu, tmp_path, "e")
     with pytest.raises(fmpy.fmi1.FMICallException, match="fmi2DeSerializeFMUstate"):
         other.deSerializeFMUstate(blob)
+
+
+QUAT = 2 + 3  # the state's doubles: time, last successful time, then x = [position (3), quaternion (4), ...]
+BAD_QUATERNIONS = [(0.0, 0.0, 0.0, 0.0), (0.5, 0.5, 0.5, 0.2), (math.nan, 0.0, 0.0, 1.0)]
+
+
+@pytest.mark.parametrize("quat", BAD_QUATERNIONS)
+def test_deserialized_state_with_a_bad_quaternion_is_refused(envisat_fmu, tmp_path, quat):
+    fmu, out, _ = _instance(envisat_fmu, tmp_path, "f")
+    _run(fmu, out, 0, 5)
+    blob = bytearray(fmu.serializeFMUstate(fmu.getFMUstate()))
+    header = 16  # magic, version, size, GUID hash (4 x uint32)
+    good = np.frombuffer(bytes(blob[header:]), dtype=np.float64, count=QUAT + 4)
+    assert abs(np.linalg.norm(good[QUAT:]) - 1.0) < 1e-12  # the layout this test assumes
+    blob[header + 8 * QUAT : header + 8 * (QUAT + 4)] = np.array(quat, dtype=np.float64).tobytes()
+    with pytest.raises(fmpy.fmi1.FMICallException, match="fmi2DeSerializeFMUstate"):
+        fmu.deSerializeFMUstate(bytes(blob))
+    before = _run(fmu, out, 5, 6)  # the instance steps on from its own state
+    assert np.isfinite(before).all()
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("quat", BAD_QUATERNIONS)
+def test_set_state_with_a_bad_quaternion_is_refused(envisat_fmu, tmp_path, quat):
+    """A state changed in memory (what a corrupted or foreign pointer would hold) is checked before use;
+    the instance keeps its own state and steps on."""
+    fmu, out, _ = _instance(envisat_fmu, tmp_path, "g")
+    _run(fmu, out, 0, 5)
+    state = fmu.getFMUstate()
+    x = np.ctypeslib.as_array(ctypes.cast(state, ctypes.POINTER(ctypes.c_double)), shape=(QUAT + 4,))
+    assert abs(np.linalg.norm(x[QUAT:]) - 1.0) < 1e-12  # the layout this test assumes
+    x[QUAT:] = quat
+    _run(fmu, out, 5, 6)
+    kept = fmu.getReal(out)
+    with pytest.raises(fmpy.fmi1.FMICallException, match="fmi2SetFMUstate"):
+        fmu.setFMUstate(state)
+    assert fmu.getReal(out) == kept
+    assert np.isfinite(_run(fmu, out, 6, 7)).all()
+    fmu.freeFMUstate(state)
+    fmu.terminate()
+    fmu.freeInstance()

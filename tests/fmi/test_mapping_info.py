@@ -62,7 +62,7 @@ def test_fmu_info(envisat_fmu):
         info["capabilities"]["providesDirectionalDerivative"] and info["capabilities"]["canSerializeFMUstate"]
     )
     assert info["mapping"]["satisfied"] and info["mapping"]["jacobians"].startswith("outputs")
-    assert {v["name"] for v in info["variables"]} >= {"target_mass", "x_corr[1]", "F[50,50]"}
+    assert {v["name"] for v in info["variables"]} >= {"target.m", "x_corr[1]", "F[50,50]", "G[50,18]"}
     text = format_fmu_info(info)
     assert "F[1..50,1..50]" in text and "der(q[1..26])" in text and "satisfied" in text
     _fits_80_columns_and_keeps_every_description(info, text)

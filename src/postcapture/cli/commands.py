@@ -136,8 +136,7 @@ def _fmu_cases(cases):
     kept, skipped = default_cases("fmu")
     note = None
     if skipped:
-        note = (f"--plant fmu: runs every case on the FMU's one plant, and an FMU gives the mass only (no "
-                f"parameter Jacobians), so only the reference's dual schemes for the flexible model run "
+        note = (f"--plant fmu: runs every case on the FMU's one plant, so the cases of the flexible model run "
                 f"({', '.join(kept)}); skipped: {', '.join(skipped)}. For the stiff ones, export a stiff "
                 "plant (postcapture fmu export --variant stiff) and pass --cases.")
     return kept, note
@@ -241,8 +240,6 @@ def cmd_fmu_export(args) -> int:
     from postcapture.fmi import export_fmu
 
     scenario = load_scenario(args.scenario)
-    if args.fmi != 2:
-        raise ScenarioError([Problem("--fmi", "2 (FMI 3.0 export is not implemented yet)", str(args.fmi))])
     with _display(args, "fmu export") as shown:
         report = export_fmu(scenario, args.output, variant=args.variant, fmi_version=args.fmi,
                             directional_derivatives=not args.no_directional, step_jacobian=not args.no_step_jacobian,

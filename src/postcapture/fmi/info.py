@@ -22,12 +22,18 @@ MAPPING_NEEDS = (
     ("state.kinematics", "free_flyer (Pinocchio free flyer + joints) or quaternion (a unit q_BN in x)"),
     ("state.attitude", "q_BN (w, x, y, z): four entries of the state"),
     ("state.rate", "omega_BN_B (rad/s): three entries of the state"),
+    ("state.velocity", "the chaser's linear velocity, B frame (m/s): three entries of the state (a free_flyer "
+                       "state has it at v[1..3]); the filters reading the accelerometer's increments need it"),
+    ("state.arm", "the arm's joint angles (rad): entries of the state; the recommended filters read the encoders"),
     ("correction.inputs", "inputs that replace the state at the next fmi2DoStep, same order as the state"),
     ("correction.reset", "input flag: > 0.5 at fmi2DoStep applies the correction"),
     ("measurement.accel", "chaser acceleration at the accelerometer, B components (m/s2)"),
     ("measurement.joint_accel", "arm joint accelerations (rad/s2)"),
-    ("parameters.mass", "tunable target-mass parameter (kg); optional"),
-    ("jacobians", "optional: request input and F, g, H, h output name patterns"),
+    ("measurement.accelerometer_position", "where the accelerometer sits in B (m)"),
+    ("parameters.mass", "a variable that is the target's mass (kg): a tunable parameter or an input; optional"),
+    ("parameters.inputs", "inputs holding the plant's parameter vector (names: postcapture's names of them, "
+                          "mass_offset: the target's mass beyond target.m); the recommended filters need them"),
+    ("jacobians", "optional: request input and F, H (and g, h or G, Hp, valid) output name patterns"),
 )
 
 _ARRAY = re.compile(r"^(.*)\[([0-9]+)(?:,([0-9]+))?\](\)?)$")  # ASCII digits: int() reads any Unicode digit

@@ -72,6 +72,13 @@ class FreeFlyerKinematics:
         self.tangent_attitude = slice(3, 6)
         self.tangent_rate = slice(self.nv + 3, self.nv + 6)
 
+    def tangent_index(self, i: int) -> int | None:
+        """Where the state entry ``i`` (a joint angle or a velocity) sits in the tangent; None for the root's
+        position and quaternion, which have no tangent entry of their own."""
+        if i < 7:
+            return None
+        return i - 1 if i < self.nq else self.nv + (i - self.nq)
+
     def retract(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """``x (+) dx``, shape (nx,)."""
         nq, nv = self.nq, self.nv
@@ -138,6 +145,11 @@ class QuaternionKinematics:
             )
         self.tangent_attitude = slice(0, 3)
         self.tangent_rate = slice(r[0], r[0] + 3)
+        self._pos = pos
+
+    def tangent_index(self, i: int) -> int | None:
+        """Where the state entry ``i`` sits in the tangent; None for an attitude entry."""
+        return self._pos.get(int(i))
 
     def retract(self, x, dx):
         """``x (+) dx``, shape (nx,)."""

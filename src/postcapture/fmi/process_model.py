@@ -8,6 +8,12 @@ else its directional derivatives, else finite differences over saved FMU states 
 :mod:`postcapture.fmi.jacobians`). Hot calls go through preallocated buffers
 (:class:`postcapture.fmi.slave.RawSlave`).
 
+What the filters read besides attitude and rate comes from the mapping: the chaser's linear velocity
+(for a ``free_flyer`` state, ``v[1..3]`` by its layout), the arm's joint angles, the accelerometer's
+position, and the inputs holding the plant's parameter vector (``param_names``, ``params``,
+``set_params``; the recommended filters need them and their Jacobians ``G``). :meth:`FMUProcessModel.missing`
+names what a scheme needs that the FMU and its mapping do not give.
+
 It satisfies :class:`postcapture.estimation.process.ProcessModel`.
 """
 
@@ -22,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from postcapture.core.errors import DimensionError, DomainError, FMIError
+from postcapture.dynamics.parameters import check_parameters, dmass_direction, parameter_names, with_target_mass
 from postcapture.estimation.process import Prediction
 from postcapture.fmi._extras import import_fmpy
 from postcapture.fmi.description import read_description
@@ -30,7 +37,11 @@ from postcapture.fmi.kinematics import make_kinematics
 from postcapture.fmi.mapping import Mapping, check_mapping, load_mapping
 from postcapture.fmi.slave import Buffer, RawSlave
 
-__all__ = ["FMUProcessModel", "open_model_description"]
+__all__ = ["FMUProcessModel", "open_model_description", "SCHEMES"]
+
+SCHEMES = ("reference_dual", "dual", "joint")
+"""The estimation schemes :meth:`FMUProcessModel.missing` knows what they need."""
+_TARGET = parameter_names((), True, False)  # the target hub's ten inertial parameters, in the vector's order
 
 logger = logging.getLogger(__name__)
 
@@ -149,6 +160,7 @@ class FMUProcessModel:
         self.measurement_names = list(self.mapping.accel) + list(self.mapping.joint_accel)
         self._att = np.array([idx[n] for n in self.mapping.attitude])
         self._rate = np.array([idx[n] for n in self.mapping.rate])
+        self._sensor_entries(idx)
         self.capabilities = {  # read from the XML itself: FMPy drops FMI 3.0's providesDirectionalDerivatives
             "fmi_version": md.fmiVersion,
             "can_get_and_set_fmu_state": cs.flags["can_get_and_set_fmu_state"],
@@ -180,6 +192,40 @@ class FMUProcessModel:
         self._mass = (
             float(self.slave.get_real(self._mass_buf)[0]) if self._mass_buf is not None else float("nan")
         )
+        self._p_buf = Buffer([self.vr[n] for n in self.mapping.parameters or ()])
+        self._params = self.slave.get_real(self._p_buf).copy()
+
+    def _sensor_entries(self, idx: dict) -> None:
+        """Where the chaser's linear velocity and the arm's joint angles sit in the state and its tangent."""
+        kin, m = self.kinematics, self.mapping
+        nq = (self.nx + 1) // 2
+        vel = [idx[n] for n in m.velocity] if m.velocity is not None else \
+            (list(range(nq, nq + 3)) if kin.name == "free_flyer" else None)
+        self._vel = self._arm = None
+        self.tangent_velocity = None
+        self.tangent_arm = None
+        problems = []
+        if vel is not None:
+            t = [kin.tangent_index(i) for i in vel]
+            if None in t or t != list(range(t[0], t[0] + 3)):
+                problems.append("[state] velocity: expected three consecutive entries (x, y, z) with tangents of "
+                                "their own (not the attitude)")
+            else:
+                self._vel, self.tangent_velocity = np.array(vel), slice(t[0], t[0] + 3)
+        if m.arm is not None:
+            arm = [idx[n] for n in m.arm]
+            t = [kin.tangent_index(i) for i in arm]
+            if None in t:
+                problems.append("[state] arm: expected joint angles, found an entry of the root's position or attitude")
+            else:
+                self._arm, self.tangent_arm = np.array(arm), np.array(t, dtype=int)
+        if problems:
+            raise FMIError("invalid mapping:\n  - " + "\n  - ".join(problems), fmu=self.label, function="mapping")
+        pos = m.accelerometer_position
+        self.accelerometer_position = None if pos is None else np.array(pos, dtype=float)
+        self.param_names = tuple(m.parameter_names or ())
+        self.n_params = len(self.param_names)
+        self._hub = [self.param_names.index(n) for n in _TARGET] if set(_TARGET) <= set(self.param_names) else None
 
     # ------------------------------------------------------------------ lifecycle
     def close(self) -> None:
@@ -205,8 +251,11 @@ class FMUProcessModel:
         if self._strategy is not None:
             return self._strategy
         want = self._requested
+        jac = self.mapping.jacobians
+        complete = jac is not None and (self.mapping.mass is None or jac.g is not None) and (
+            not self.n_params or jac.G is not None)
         if want == "auto":
-            if self.mapping.jacobians is not None:
+            if complete:  # the outputs give every column this mapping asks for
                 want = "outputs"
             elif (
                 self.capabilities["provides_directional_derivative"]
@@ -216,8 +265,10 @@ class FMUProcessModel:
             else:
                 want = "finite_differences"
         cls = JACOBIAN_METHODS[want]
-        if want == "outputs" and self.mapping.jacobians is None:
-            raise FMIError("the mapping names no Jacobian outputs", fmu=self.label, function="mapping")
+        if want == "outputs" and not complete:
+            raise FMIError("the mapping names no Jacobian outputs" if jac is None else
+                           "the Jacobian outputs lack the mass (g, h) or parameter (G, Hp) columns the mapping needs",
+                           fmu=self.label, function="mapping")
         if want == "directional" and not self.capabilities["provides_directional_derivative"]:
             raise FMIError(
                 "the FMU does not provide directional derivatives",
@@ -251,18 +302,105 @@ class FMUProcessModel:
 
     @property
     def mass(self) -> float:
-        """Target mass used by the FMU (kg)."""
+        """Target mass used by the FMU (kg): the mapping's mass variable, or ``target.m`` plus its offset."""
+        if self.mapping.mass_from_parameters and self._hub is not None:
+            return float(self._params[self._hub[0]]) + float(self.mapping.mass_offset)
+        if self._mass_buf is None:
+            raise AttributeError("the mapping names no mass: a mass variable, or parameter inputs with mass_offset")
         return self._mass
 
     @mass.setter
     def mass(self, value: float) -> None:
-        if self._mass_buf is None:
-            raise AttributeError("the mapping names no mass parameter")
         if not np.isfinite(value):
             raise DomainError(f"mass: expected a finite mass (kg), found {value}")
+        if self.mapping.mass_from_parameters and self._hub is not None:
+            p = self.params
+            try:
+                p[self._hub] = with_target_mass(p[self._hub], value, float(self.mapping.mass_offset))
+            except ValueError as exc:
+                raise DomainError(str(exc)) from exc
+            self.set_params(p)
+            return
+        if self._mass_buf is None:
+            raise AttributeError("the mapping names no mass: a mass variable, or parameter inputs with mass_offset")
         self._mass_buf.values[0] = float(value)
         self.slave.set_real(self._mass_buf)
         self._mass = float(value)
+
+    def mass_direction(self) -> np.ndarray:
+        """``d p / d m`` (n_params,): the hub's mass at a fixed centre of mass and inertia about it."""
+        d = np.zeros(self.n_params)
+        d[self._hub] = dmass_direction(self._params[self._hub])
+        return d
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def params(self) -> np.ndarray:
+        """The parameter vector the FMU's inputs hold (a copy), in ``param_names``' order."""
+        return self._params.copy()
+
+    def set_params(self, p) -> None:
+        """Set the parameter inputs (held constant over the next steps).
+
+        Raises
+        ------
+        DomainError
+            For a vector of the wrong size, not finite or, with postcapture's names, not physical (checked
+            here: an FMU that refuses a value enters its error state).
+        """
+        if not self.n_params:
+            raise AttributeError("the mapping names no parameter inputs ([parameters] inputs)")
+        p = np.array(p, dtype=float).reshape(-1)
+        if p.shape != (self.n_params,) or not np.all(np.isfinite(p)):
+            raise DomainError(f"parameters: expected {self.n_params} finite numbers ({', '.join(self.param_names)}), "
+                              f"found {p}")
+        if self.param_names[: len(_TARGET)] == _TARGET:
+            p = check_parameters(self.param_names, p, True)
+        self._p_buf.values[:] = p
+        self.slave.set_real(self._p_buf)
+        self._params = p
+
+    def missing(self, scheme: str, parameter_names=(), *, orbit: bool = False) -> list[str]:
+        """What a scheme needs that this FMU and its mapping do not give (empty when it can run).
+
+        Parameters
+        ----------
+        scheme : {"reference_dual", "dual", "joint"}
+            The reference's dual scheme (attitude filter and mass filter) or a recommended one.
+        parameter_names : sequence of str
+            The parameters the recommended schemes estimate or consider (postcapture's names).
+        orbit : bool
+            Whether the filters model the orbit's gravity gradient (they then read the chaser's position).
+
+        Returns
+        -------
+        list of str
+            One entry per missing item, naming the mapping entry or FMU capability.
+        """
+        if scheme not in SCHEMES:
+            raise ValueError(f"scheme: expected one of {', '.join(SCHEMES)}, found {scheme!r}")
+        need = []
+        if self._vel is None:
+            need.append("[state] velocity: the chaser's linear velocity (B frame, m/s) in the state")
+        if self.accelerometer_position is None:
+            need.append("[measurement] accelerometer_position: where the accelerometer sits in B (m)")
+        if orbit and scheme != "reference_dual" and self.kinematics.name != "free_flyer":
+            need.append("the chaser's position (a free_flyer state): the filters model the orbit's field")
+        if scheme == "reference_dual":
+            if self._mass_buf is None and not (self.mapping.mass_from_parameters and self._hub is not None):
+                need.append("[parameters] mass: a variable that is the target's mass, or inputs with mass_offset")
+            return need
+        if self._arm is None:
+            need.append("[state] arm: the arm's joint angles (rad) in the state (the encoders read them)")
+        absent = [n for n in parameter_names if n not in self.param_names]
+        if absent:
+            need.append(f"[parameters] inputs: inputs holding {', '.join(absent)}")
+        jac = self.mapping.jacobians
+        derivable = (jac is not None and jac.G is not None) or self.capabilities["can_get_and_set_fmu_state"] or (
+            self.capabilities["provides_directional_derivative"] and self.state_derivative_names() is not None)
+        if not derivable:
+            need.append("the parameter Jacobians: G and Hp outputs, directional derivatives or saved FMU states")
+        return need
 
     def initial_state(self) -> np.ndarray:
         """The FMU's state after initialisation (its start values), shape (nx,)."""
@@ -286,7 +424,8 @@ class FMUProcessModel:
         -------
         Prediction
             ``x`` (nx,), ``z`` (n_meas,) and, with ``jacobians=True``, ``F`` (n, n), ``g`` (n,),
-            ``H`` (n_meas, n), ``h`` (n_meas,) in tangent coordinates.
+            ``H`` (n_meas, n), ``h`` (n_meas,) in tangent coordinates, and ``G`` (n, n_params), ``Hp``
+            (n_meas, n_params) when the mapping names parameter inputs (``g``, ``h`` None without a mass).
 
         Raises
         ------
@@ -313,8 +452,8 @@ class FMUProcessModel:
         if strategy.needs_fmu_state:
             strategy.save_before(self)
         x1, z = self._raw_step(x, t, dt, request=strategy.uses_request)
-        F, g, H, h = strategy.compute(self, x, t, dt, x1, z)
-        return Prediction(x1, z, F, g, H, h)
+        F, g, H, h, G, Hp = strategy.compute(self, x, t, dt, x1, z)
+        return Prediction(x1, z, F, g, H, h, G, Hp)
 
     def retract(self, x, dx) -> np.ndarray:
         """``x (+) dx`` (box-plus), shape (nx,)."""
@@ -332,3 +471,24 @@ class FMUProcessModel:
     def body_rate(self, x) -> np.ndarray:
         """Chaser body rate ``omega_BN_B`` (rad/s)."""
         return np.asarray(x, dtype=float)[self._rate]
+
+    def chaser_position(self, x) -> np.ndarray:
+        """Position of the chaser's origin in N (m): a free-flyer state's first entries."""
+        if self.kinematics.name != "free_flyer":
+            raise FMIError("the chaser's position is known for a free_flyer state only", fmu=self.label,
+                           function="mapping")
+        return np.asarray(x, dtype=float)[0:3]
+
+    def chaser_velocity(self, x) -> np.ndarray:
+        """Velocity of the chaser's origin, body components (m/s)."""
+        if self._vel is None:
+            raise FMIError("the mapping names no [state] velocity (the chaser's linear velocity)", fmu=self.label,
+                           function="mapping")
+        return np.asarray(x, dtype=float)[self._vel]
+
+    def arm_angles(self, x) -> np.ndarray:
+        """The arm's joint angles (rad)."""
+        if self._arm is None:
+            raise FMIError("the mapping names no [state] arm (the arm's joint angles)", fmu=self.label,
+                           function="mapping")
+        return np.asarray(x, dtype=float)[self._arm]

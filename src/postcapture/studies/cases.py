@@ -61,11 +61,11 @@ RECOMMENDED = ("dual", "joint")
 
 
 def default_cases(plant: str = "native") -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """The default cases for a plant, and those left out: an FMU is one plant and gives the mass only (no
-    parameter Jacobians), so it runs the reference's dual schemes for the flexible model."""
+    """The default cases for a plant, and those left out: an FMU is one plant, so it runs the cases of the
+    flexible model (the recommended ones and the reference's dual schemes), not those of the stiff one."""
     if plant == "native":
         return DEFAULT_CASES, ()
-    kept = tuple(c for c in DEFAULT_CASES if CASES[c].variant == "flexible" and CASES[c].scheme == "reference_dual")
+    kept = tuple(c for c in DEFAULT_CASES if CASES[c].variant == "flexible")
     return kept, tuple(c for c in DEFAULT_CASES if c not in kept)
 
 

@@ -136,7 +136,7 @@ def run_case(plan: RunPlan, case: str, sensors, q0_true, dq0, progress=None):
         return _failed_result(case, plan.t_grid, str(exc))
 
 
-def _failed_result(case: str, t_grid, message: str):
+def _failed_result(case: str, t_grid, message: str, *, prefix: str = "failed: "):
     from postcapture.estimation.dual import DualResult
     from postcapture.estimation.history import EstimateHistory, StepFlag
 
@@ -144,7 +144,7 @@ def _failed_result(case: str, t_grid, message: str):
     nan = np.full(n, np.nan)
     history = EstimateHistory(case, t_grid, np.full((4, n), np.nan), np.full((3, 3, n), np.nan), nan.copy(),
                               np.full(n, int(StepFlag.DIVERGED), dtype=np.uint8), ("dtheta_x", "dtheta_y", "dtheta_z"),
-                              success=False, status=-1, message=f"failed: {message}")
+                              success=False, status=-1, message=f"{prefix}{message}")
     return DualResult(history, nan.copy(), nan.copy(), nan.copy(), 0.0, {})
 
 
@@ -152,33 +152,65 @@ def _run_case_unguarded(plan: RunPlan, case: str, sensors, q0_true, dq0, progres
     scenario = plan.scenario
     spec = CASES[case]
     theta0 = plan.initial_mass
-    est = scenario.estimation
     native = NativeProcessModel.for_filters(scenario, variant=spec.variant, name=spec.name)
     q0 = rot.box_plus(np.asarray(q0_true, dtype=float), dq0)
     t_grid = plan.t_grid
+    model = native if plan.plant == "native" else _fmu_plant(plan, spec, native)
+    if isinstance(model, str):  # the FMU lacks what this case needs: the case does not run
+        return _failed_result(case, t_grid, model, prefix="")
     if spec.scheme in ("dual", "joint"):
-        return _run_recommended(plan, spec, native, sensors, q0, progress)
+        initial = None
+        if model is not native and _same_plant(model, native):  # one of ours: the scenario's x0(p) and d x0 / d p
+            from postcapture.studies.robust import initial_state_sensitivity
+
+            initial = (native.initial_state(), initial_state_sensitivity(native))
+        return _run_recommended(plan, spec, model, sensors, q0, progress, initial=initial)
     from postcapture.estimation.dual import run_dual
 
-    if plan.plant == "native":
-        model = native
-        x0, S0 = initial_state_and_sensitivity(model, theta0)
-    else:
-        from postcapture.fmi import FMUProcessModel
-
-        model = FMUProcessModel(plan.plant[len("fmu:"):], mapping=plan.mapping, name=spec.name)
+    if model is native or _same_plant(model, native):
         model.mass = theta0
-        if model.nx == native.nx and model.n == native.n:  # one of ours: same state layout as the native plant
-            x0, S0 = initial_state_and_sensitivity(native, theta0)
-        else:  # another tool's FMU: its own start values, no initial sensitivity
-            x0, S0 = model.initial_state(), np.zeros(model.n)
+        x0, S0 = initial_state_and_sensitivity(native, theta0)
+    else:  # another tool's FMU: its own start values, no initial sensitivity
+        model.mass = theta0
+        x0, S0 = model.initial_state(), np.zeros(model.n)
     cfg = dual_config(spec, plan.filter_profile, plan.profile_name, plan.tuning, scenario.n_arm, theta0)
     return run_dual(model, sensors, cfg, x0=x0, theta0=theta0, t_grid=t_grid, S0=S0, q0_BN=q0,
                     raise_on_divergence=False, progress=progress)
 
 
-def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
-    """The recommended dual or joint scheme (:mod:`postcapture.estimation.schemes`)."""
+def _fmu_plant(plan: RunPlan, spec, native):
+    """The case's plant on the run's FMU, or why the case cannot run there (one message naming what the FMU
+    and its mapping lack)."""
+    from postcapture.estimation.parameters import group_of
+    from postcapture.fmi import FMUProcessModel
+    from postcapture.studies.robust import parameter_groups
+
+    model = FMUProcessModel(plan.plant[len("fmu:"):], mapping=plan.mapping, name=spec.name)
+    names = ()
+    if spec.scheme != "reference_dual":
+        groups = set(sum(parameter_groups(plan), ()))
+        names = tuple(n for n in native.param_names if group_of(n) in groups)
+    missing = model.missing(spec.scheme, names, orbit=orbit_mean_motion(plan.scenario, "filters") > 0.0)
+    if not missing:
+        return model
+    model.close()
+    message = f"not run: the FMU plant lacks {'; '.join(missing)}"
+    logger.warning("case %s %s", spec.name, message)
+    return message
+
+
+def _same_plant(model, native) -> bool:
+    """Whether an FMU is this scenario's exported plant (same layout, parameters and initial state), so that
+    the scenario's initial state and its sensitivities apply to it."""
+    if model.nx != native.nx or tuple(getattr(model, "param_names", ())) not in ((), native.param_names):
+        return False
+    x0, x1 = model.initial_state(), native.initial_state()
+    return bool(np.abs(x0 - x1).max() <= 1e-12 * max(1.0, np.abs(x1).max()))
+
+
+def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress, initial=None):
+    """The recommended dual or joint scheme (:mod:`postcapture.estimation.schemes`); ``initial`` is the
+    plant's initial state and its parameter sensitivity when the model cannot give them (an FMU)."""
     from postcapture.studies.robust import build_augmented, with_discretisation_bias
     from postcapture.estimation.mekf import MEKF
     from postcapture.estimation.schemes import run_dual_scheme, run_joint_scheme
@@ -187,13 +219,13 @@ def _run_recommended(plan: RunPlan, spec, model, sensors, q0, progress):
     R = filter_noise(prof, tun, plan.scenario.n_arm)
     panel_mass = sum(p.mass for p in plan.scenario.target.panels)
     if spec.scheme == "joint":
-        filt = build_augmented(plan, model, q0, name=spec.name)
+        filt = build_augmented(plan, model, q0, name=spec.name, initial=initial)
         result = run_joint_scheme(filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
                                   name=spec.name)
     else:
         cfg = dual_config(spec, prof, plan.profile_name, tun, plan.scenario.n_arm, plan.initial_mass)
         mekf = MEKF(cfg.mekf, q0, cfg.mekf_P0, t0=plan.t_grid[0])
-        filt = build_augmented(plan, model, q0, name=f"{spec.name}/parameters")
+        filt = build_augmented(plan, model, q0, name=f"{spec.name}/parameters", initial=initial)
         result = run_dual_scheme(mekf, filt, sensors, plan.t_grid, R=R, panel_mass=panel_mass, progress=progress,
                                  name=spec.name)
     return with_discretisation_bias(result, tun.discretisation_bias)
@@ -274,8 +306,9 @@ def run_main_job(
     crlb : bool
         Also compute the mass Cramer-Rao bound (one more pass of step Jacobians).
     plant : str
-        The filters' process model: ``"native"`` (Pinocchio) or ``"fmu:PATH"`` (any co-simulation FMU;
-        every case then runs on that FMU, whatever its case name's variant).
+        The filters' process model: ``"native"`` (the compiled core) or ``"fmu:PATH"`` (any co-simulation
+        FMU; every case then runs on that FMU, whatever its case name's variant; a case whose needs the
+        FMU and its mapping do not meet does not run, and its result says what is missing).
     mapping : str, optional
         The FMU's mapping TOML (default: the one inside the FMU or next to it).
     progress : callable(task, fraction), optional

@@ -396,18 +396,19 @@ def model_noise_vector(model, noise) -> np.ndarray:
 
 
 def build_augmented(plan: RunPlan, model, q0_BN, *, name: str,
-                    model_noise=None) -> AugmentedEKF:
+                    model_noise=None, initial=None) -> AugmentedEKF:
     """An :class:`AugmentedEKF` for a plan: the groups, the prior, the tunings, the initial state.
 
-    ``model_noise`` overrides the plan's (derived or set) model-error process noise.
+    ``model_noise`` overrides the plan's (derived or set) model-error process noise; ``initial``, a pair
+    ``(x0, d x0 / d p)``, the model's own initial state and sensitivity (an FMU's start values do not
+    follow its parameters: its scenario's do).
     """
     estimate, consider = parameter_groups(plan)
     est_map = ParameterMap(model.param_names, model.params, estimate)
     pmap = ParameterMap(model.param_names, model.params, est_map.groups + tuple(g for g in consider
                                                                                    if g not in est_map.groups))
     eta0, P_eta = parameter_prior(plan, pmap)
-    S0 = initial_state_sensitivity(model)
-    x0 = model.initial_state()
+    x0, S0 = initial if initial is not None else (model.initial_state(), initial_state_sensitivity(model))
     tun = plan.tuning
     prof = plan.filter_profile
     tuning = AugmentedTuning(

@@ -85,10 +85,6 @@ def plan_run(
         problems.append(Problem("target", "a target whose mass to estimate", "none"))
     if plant != "native" and not (plant.startswith("fmu:") and len(plant) > 4):
         problems.append(Problem("plant", "native or fmu:PATH", repr(plant)))
-    recommended = [c for c in cases if c in CASES and CASES[c].scheme in ("dual", "joint")]
-    if plant != "native" and recommended:
-        problems.append(Problem("cases", "with an FMU plant, the reference's dual schemes only: the recommended "
-                                         "schemes need the native model's parameter Jacobians", ", ".join(recommended)))
     est, sim = scenario.estimation, scenario.simulation
     if abs(sim.sample_period - est.filter_step) > 1e-12:
         problems.append(Problem("estimation.filter_step", "equal to simulation.sample_period (the sensors sample "

@@ -10,7 +10,6 @@ from __future__ import annotations
 import logging
 import os
 import subprocess
-import sys
 import zipfile
 from pathlib import Path
 
@@ -21,11 +20,11 @@ __all__ = ["platform_folder", "find_compiler", "compile_library", "zip_fmu"]
 logger = logging.getLogger(__name__)
 
 
-def platform_folder() -> tuple[str, str]:
-    """FMI 2.0 binary folder and shared-library suffix of this machine."""
-    if sys.platform.startswith("linux"):
-        return ("linux64" if sys.maxsize > 2**32 else "linux32"), ".so"
-    raise FMIError(f"exporting FMUs is supported on Linux only, not {sys.platform}", function="export")
+def platform_folder(fmi_version: int = 2) -> tuple[str, str]:
+    """Binary folder (FMI 2.0: ``linux64``; FMI 3.0: ``x86_64-linux``) and shared-library suffix of this machine."""
+    from postcapture.fmi.export.versions import VERSIONS
+
+    return VERSIONS[fmi_version].binary_folder(), ".so"
 
 
 def find_compiler() -> str:

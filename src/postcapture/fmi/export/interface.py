@@ -1,22 +1,25 @@
 """The exported FMU's variables: names, value references, causalities, units and start values.
 
-One table serves the ``modelDescription.xml`` writer, the C header (value-reference ranges) and the
-mapping file. Value references are consecutive, in this order:
+One table serves both model-description writers (FMI 2.0 and 3.0), the C header (value-reference
+ranges) and the mapping file. Value references are consecutive, in this order:
 
-========================  ==========  ==============================================================
-block                     causality   meaning
-========================  ==========  ==============================================================
-``q[i]``, ``v[i]``        output      the state ``x = [q, v]`` (continuous states, ``initial="exact"``)
-``der(q[i])``, ...        local       ambient state derivatives (listed in ModelStructure/Derivatives)
-named outputs             output      ``q_BN_w`` ... ``accel_B_x`` ... ``arm_ddq_7``, tips, torsions
-parameters                parameter   ``target_mass``, then the plant's parameter vector (tunable)
-``force_x`` ... ``joint_n``  input    additive to the embedded excitation, held over a step
-``x_corr[i]``             input       the state correction (applied when ``reset > 0.5``)
-``reset``                 input       replace the state by ``x_corr`` at the start of ``fmi2DoStep``
-``jacobian_request``      input       compute ``F``, ``g``, ``H``, ``h`` during the next ``fmi2DoStep``
-``F[i,j]``, ``g[i]``,     output      the exact step and measurement Jacobians (discrete)
-``H[i,j]``, ``h[i]``
-========================  ==========  ==============================================================
+==========================  ==========  ============================================================
+block                       causality   meaning
+==========================  ==========  ============================================================
+``q[i]``, ``v[i]``          output      the state ``x = [q, v]`` (continuous states, ``initial="exact"``)
+``der(q[i])``, ...          local       ambient state derivatives (ModelStructure: the derivatives)
+named outputs               output      ``q_BN_w`` ... ``accel_B_x`` ... ``arm_ddq_7``, tips, torsions
+``target.m`` ... ``arm.*``  input       the plant's parameter vector, held constant: inputs, so that
+                                        their partials are standard directional derivatives
+``force_x`` ... ``joint_n`` input       added to the embedded excitation, held over a step
+``x_corr[i]``               input       the state correction (applied when ``reset > 0.5``)
+``reset``                   input       replace the state by ``x_corr`` at the start of a step
+``jacobian_request``        input       compute ``F``, ``G``, ``H``, ``Hp`` during the next step
+``F[i,j]``, ``G[i,k]``,     output      the exact step and measurement Jacobians of the last step
+``H[i,j]``, ``Hp[i,k]``                 (discrete; 0 unless requested)
+``jacobian_valid``          output      1 when ``F``, ``G``, ``H``, ``Hp`` describe the last step, else 0
+``time``                    independent FMI 3.0 only: the independent variable
+==========================  ==========  ============================================================
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ UNITS = {
     "rad/s": {"rad": 1, "s": -1},
     "rad/s2": {"rad": 1, "s": -2},
     "1/s": {"s": -1},
+    "s": {"s": 1},
     "kg": {"kg": 1},
     "kg.m": {"kg": 1, "m": 1},
     "kg.m2": {"kg": 1, "m": 2},
@@ -63,7 +67,7 @@ class ScalarVariable:
     unit: str | None = None
     start: float | None = None
     derivative: int | None = None  # 1-based index of the state this variable is the derivative of
-    block: str = ""  # "x", "dx", "y", "p", "u", "xc", "reset", "jreq", "jac"
+    block: str = ""  # "x", "dx", "y", "p", "u", "xc", "reset", "jreq", "jac", "jvalid", "time"
 
 
 @dataclass
@@ -136,45 +140,49 @@ def _state_blocks(t: _Table, plant: ExportPlant, x0: np.ndarray, x_names: list[s
 
 
 def _input_blocks(t: _Table, plant: ExportPlant, x0: np.ndarray, x_names: list[str], x_units: list[str]) -> None:
-    """Tunable parameters, inputs, the state correction, the reset flag and the Jacobian request."""
-    t.block("p", [dict(name=p.name, causality="parameter", variability="tunable", initial="exact",
-                       description=p.description, unit=p.unit, start=p.value) for p in plant.parameters])
+    """The parameter inputs, the force inputs, the state correction, the reset flag and the Jacobian request."""
+    t.block("p", [dict(name=p.name, causality="input", variability="continuous", initial=None,
+                       description=f"{p.description}; an input held constant (its partials are directional "
+                                   "derivatives)", unit=p.unit, start=p.value) for p in plant.parameters])
     channels = list(CHASER_CHANNELS) + [f"joint_{i + 1}" for i in range(plant.n_arm)]
     units = ["N"] * 3 + ["N.m"] * 3 + ["N.m"] * plant.n_arm
     t.block("u", [dict(name=ch, causality="input", variability="continuous", initial=None,
                        description=f"{ch}: added to the embedded excitation, held over a communication step",
                        unit=unit, start=0.0) for ch, unit in zip(channels, units, strict=True)])
     t.block("xc", [dict(name=f"x_corr[{i + 1}]", causality="input", variability="discrete", initial=None,
-                        description=f"correction of {name}: replaces it at the start of fmi2DoStep when reset > 0.5",
+                        description=f"correction of {name}: replaces it at the start of the next step when reset > 0.5",
                         unit=x_units[i], start=float(x0[i])) for i, name in enumerate(x_names)])
     t.block("reset", [dict(name="reset", causality="input", variability="discrete", initial=None, start=0.0,
-                           description="when > 0.5 at the start of fmi2DoStep, the state is replaced by x_corr",
+                           description="when > 0.5 at the start of a step, the state is replaced by x_corr",
                            unit="1")])
     t.block("jreq", [dict(name="jacobian_request", causality="input", variability="discrete", initial=None, start=0.0,
-                          description="when > 0.5, fmi2DoStep also computes the outputs F, g, H, h", unit="1")])
+                          description="when > 0.5, the next step also computes the outputs F, G, H, Hp", unit="1")])
 
 
-def _jacobian_block(t: _Table, nt: int, n_z: int) -> None:
-    """Discrete outputs ``F[i,j]``, ``g[i]``, ``H[i,j]``, ``h[i]``, row by row."""
+def _jacobian_block(t: _Table, nt: int, n_z: int, n_p: int) -> None:
+    """Discrete outputs ``F[i,j]``, ``G[i,k]``, ``H[i,j]``, ``Hp[i,k]`` row by row, and ``jacobian_valid``."""
     rows = []
     for symbol, n_rows, cols, description in (
         ("F", nt, nt, "step Jacobian d x_k+1 / d x_k (tangent coordinates)"),
-        ("g", nt, None, "d x_k+1 / d target_mass (tangent coordinates)"),
+        ("G", nt, n_p, "step Jacobian d x_k+1 / d p (tangent coordinates; p the parameter inputs)"),
         ("H", n_z, nt, "measurement Jacobian d z_k+1 / d x_k+1 (tangent coordinates)"),
-        ("h", n_z, None, "d z_k+1 / d target_mass at fixed state"),
+        ("Hp", n_z, n_p, "measurement Jacobian d z_k+1 / d p at fixed state"),
     ):
         for i in range(n_rows):
-            for j in range(cols or 1):
-                name = f"{symbol}[{i + 1},{j + 1}]" if cols else f"{symbol}[{i + 1}]"
-                rows.append(dict(name=name, causality="output", variability="discrete", initial="calculated",
-                                 description=description))
+            for j in range(cols):
+                rows.append(dict(name=f"{symbol}[{i + 1},{j + 1}]", causality="output", variability="discrete",
+                                 initial="calculated", description=description + "; 0 unless requested"))
     t.block("jac", rows)
+    t.block("jvalid", [dict(name="jacobian_valid", causality="output", variability="discrete", initial="calculated",
+                            description="1 when F, G, H, Hp describe the last step (it was requested), else 0",
+                            unit="1")])
 
 
 def build_interface(
-    plant: ExportPlant, x0: np.ndarray, *, step_jacobian: bool, n_y: int, n_z: int
+    plant: ExportPlant, x0: np.ndarray, *, step_jacobian: bool, n_y: int, n_z: int, independent_time: bool = False
 ) -> Interface:
-    """The variable table of an FMU of ``plant`` starting at ``x0`` (nx,)."""
+    """The variable table of an FMU of ``plant`` starting at ``x0`` (nx,); ``independent_time`` adds the
+    independent variable ``time`` (last; FMI 3.0 requires one)."""
     if len(plant.output_signals()) != n_y:
         raise RuntimeError(f"output table has {len(plant.output_signals())} entries, generated code {n_y}")
     t = _Table()
@@ -183,5 +191,8 @@ def build_interface(
     _input_blocks(t, plant, x0, x_names, x_units)
     nt = 2 * plant.nv
     if step_jacobian:
-        _jacobian_block(t, nt, n_z)
+        _jacobian_block(t, nt, n_z, len(plant.parameters))
+    if independent_time:
+        t.block("time", [dict(name="time", causality="independent", variability="continuous", initial=None,
+                              description="simulation time", unit="s")])
     return Interface(t.variables, t.blocks, nx=plant.nx, nt=nt, nz=n_z, step_jacobian=step_jacobian)

@@ -77,18 +77,13 @@ class ExportPlant:
         self.joints = [(J.name, J.parent, _KIND[J.kind], J.iq, J.iv, J.rotation.copy(), J.translation.copy())
                        for J in tree.joints]
         params = []
-        if self.has_target:
-            params.append(Parameter("target_mass", float(system.target_mass), "kg",
-                                    "total target mass, hub plus panels (sets the hub's mass at a fixed centre of mass "
-                                    "and inertia about it)", min=float(layout.target_panel_mass)))
-        else:
-            params.append(Parameter("target_mass", 0.0, "kg", "no target in this plant", min=0.0))
         for name, value in zip(system.parameter_names, system.parameters(), strict=True):
             unit, what = _parameter_unit(name)
             lo = 0.0 if unit == "1" or name == "target.m" else None
             params.append(Parameter(name, float(value), unit, what, min=lo))
-        self.parameters = params
-        self.n_p = len(params)
+        self.parameters = params  # the parameter vector (dynamics.parameters), in its order
+        self.target_panel_mass = float(layout.target_panel_mass) if self.has_target else 0.0
+        self.accelerometer_position = tuple(float(c) for c in system.scenario.chaser.accelerometer_position)
 
     def output_signals(self) -> list[OutputSignal]:
         """Names, units and meanings of the named outputs, in the FMU's order."""
