@@ -318,7 +318,8 @@ def cmd_bench(args) -> int:
     from postcapture.studies.bench import run_benchmark
 
     with _display(args, "bench") as shown:
-        result = run_benchmark(args.scenario, duration=args.duration, progress=shown.phase)
+        result = run_benchmark(args.scenario, duration=args.duration, progress=shown.phase,
+                               campaign=getattr(args, "campaign", False))
     if args.json:
         _print_json(result)
         return 0

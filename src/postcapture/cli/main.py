@@ -290,6 +290,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=_positive_float, default=300.0, metavar="S", help="simulated seconds per case")
     p.add_argument("--accuracy", action="store_true",
                    help="instead: integrator accuracy against RK4 at 0.25 ms (40 s forced and free; minutes)")
+    p.add_argument("--campaign", action="store_true",
+                   help="also time a 50-run dispersed campaign of dual and joint (key campaign50_s; minutes)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=commands.cmd_bench)
     return parser
