@@ -45,7 +45,7 @@ from postcapture.dynamics import engine as _engine
 from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy
 from postcapture.estimation.parameters import ParameterMap
 
-__all__ = ["AugmentedTuning", "AugmentedEKF"]
+__all__ = ["AugmentedTuning", "AugmentedEKF", "AugmentedSetup"]
 
 
 @dataclass(frozen=True)
@@ -93,6 +93,23 @@ class AugmentedTuning:
         """Whether the filter carries the gyro's scale factors and misalignments."""
         return self.P0_gyro_scale > 0.0 or self.P0_gyro_misalignment > 0.0
 
+
+
+@dataclass(frozen=True)
+class AugmentedSetup:
+    """What the engine's filter was created from (an estimator FMU embeds it): the plant state before the
+    initial attitude estimate ``q0_BN`` is applied, then ``dx_shift`` (tangent) that moves it to the prior's
+    parameters; the prior's coordinates and covariance; the model noise per velocity (or full)."""
+
+    x0: np.ndarray
+    q0_BN: np.ndarray | None
+    dx_shift: np.ndarray
+    eta0: np.ndarray
+    P0: np.ndarray
+    q_noise: np.ndarray
+    full_noise: bool
+    n_cal: int
+    n_consider: int
 
 
 class AugmentedEKF(FilterBase):
@@ -160,6 +177,7 @@ class AugmentedEKF(FilterBase):
         self.labels = tuple(labels)
         eta = np.array(eta0, dtype=float)
         x = np.array(x0, dtype=float)
+        x_start = x.copy()
         if q0_BN is not None:
             d = np.zeros(n)
             d[self.att] = rot.box_minus(np.asarray(q0_BN, dtype=float), model.attitude(x))
@@ -167,7 +185,8 @@ class AugmentedEKF(FilterBase):
         # the initial state follows the parameters it was computed with: move it to eta0, first order
         p0 = params.to_model(eta)
         model.set_params(p0)
-        x = model.retract(x, S0 @ (p0 - params.p_nominal))
+        dx_shift = S0 @ (p0 - params.p_nominal)
+        x = model.retract(x, dx_shift)
         P = np.zeros((N, N))
         P[:n, :n] = tuning.P0_state * np.eye(n)
         P[self.att, self.att] = tuning.P0_attitude
@@ -184,6 +203,8 @@ class AugmentedEKF(FilterBase):
         noise = np.asarray(tuning.model_noise, dtype=float)
         full = noise.ndim == 2
         q_noise = np.ascontiguousarray(noise if full else np.broadcast_to(noise, (n // 2,)), dtype=float)
+        self.setup = AugmentedSetup(x_start, None if q0_BN is None else np.array(q0_BN, dtype=float), dx_shift, eta,
+                                    P, q_noise, full, ncal, n_consider)
         self._create(x, eta, P, q_noise, full, ncal, n_consider)
 
     def _create(self, x, eta, P, q_noise, full: bool, ncal: int, n_consider: int) -> None:

@@ -466,3 +466,9 @@ static void aug_reinitialise(void* self) {
     memcpy(f->eta, f->eta_init, (size_t)f->n_eta * sizeof(double));
     memcpy(f->P, f->P_init, (size_t)f->N * f->N * sizeof(double));
 }
+
+void pc_aug_retune(pc_aug_t* f, const double* q_noise, double sigma_gyro_walk, double sigma_accel_walk) {
+    memcpy(f->q_noise, q_noise, (f->full_noise ? (size_t)f->n * f->n : (size_t)f->nv) * sizeof(double));
+    f->sg = sigma_gyro_walk;
+    f->sa = sigma_accel_walk;
+}

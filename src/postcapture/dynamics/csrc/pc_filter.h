@@ -68,6 +68,10 @@ PC_API int pc_filter_status(const void* f, long* counts);
 PC_API int pc_filter_events(void* f, double* out, char* text, int cap);
 PC_API const char* pc_filter_message(const void* f);
 PC_API double* pc_filter_state(void* f, size_t* n);
+/* a filter's whole state (its state array and its failure model's), as doubles: what an FMU state saves */
+PC_API size_t pc_filter_save_size(const void* f);
+PC_API void pc_filter_save(const void* f, double* buf);
+PC_API void pc_filter_load(void* f, const double* buf);
 PC_API void pc_filter_destroy(void* f);
 
 /* the Kalman kernel: Joseph update of a zero error state with gating and consider states (consider: n flags
@@ -107,6 +111,7 @@ PC_API int pc_mekf_predict(pc_mekf_t* f, double t, double dt, const double* u);
 PC_API int pc_mekf_update(pc_mekf_t* f, double t, const double* q_meas, const double* R, pc_update_t* res);
 PC_API void pc_mekf_transition(const double* w, double dt, double* Phi6); /* the error's Phi over dt (6 x 6) */
 PC_API void pc_mekf_noise(double sigma_v, double sigma_u, double dt, double* Q6); /* its process noise (6 x 6) */
+PC_API void pc_mekf_retune(pc_mekf_t* f, double sigma_v, double sigma_u);
 
 /* attitude EKF (pc_attitude_ekf.c): the error-state arithmetic (its plant copy steps and retracts outside).
  * state: [P (3 x 3)] */
@@ -152,5 +157,6 @@ PC_API int pc_aug_measure(pc_aug_t* f, int kind, double* z, double* H); /* gyro,
 PC_API void pc_aug_apply(pc_aug_t* f, const double* dx); /* x <- x (+) dx over the whole error state */
 PC_API int pc_aug_parameters(pc_aug_t* f, double* p, double* C); /* p (np), C (np x np) or NULL */
 PC_API void pc_aug_reopen(pc_aug_t* f, int index, double sigma);
+PC_API void pc_aug_retune(pc_aug_t* f, const double* q_noise, double sigma_gyro_walk, double sigma_accel_walk);
 
 #endif

@@ -206,3 +206,9 @@ int pc_mekf_update(pc_mekf_t* f, double t, const double* q_meas, const double* R
     if (res->accepted) pc_book_check(&f->book, f->P, m, t, 1);
     return PC_OK;
 }
+
+void pc_mekf_retune(pc_mekf_t* f, double sigma_v, double sigma_u) {
+    f->sigma_v = sigma_v;
+    f->sigma_u = sigma_u;
+    f->Q_dt = -1.0; /* the noise is computed again at the next step */
+}

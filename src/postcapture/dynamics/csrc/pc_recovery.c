@@ -220,3 +220,50 @@ double* pc_filter_state(void* f, size_t* n) {
 }
 
 void pc_filter_destroy(void* f) { free(f); }
+
+/* the book's numbers (no pointers, no pending events), then the filter's state array */
+#define BOOK_FIXED (2 + PC_NCOUNTS + 4 * PC_NKINDS + PC_MAX_RECOVERIES + 1)
+
+size_t pc_filter_save_size(const void* f) {
+    const pc_book_t* b = (const pc_book_t*)f;
+    return BOOK_FIXED + 2 * (size_t)PC_NKINDS * b->nis_window + b->n_state;
+}
+
+void pc_filter_save(const void* f, double* o) {
+    const pc_book_t* b = (const pc_book_t*)f;
+    int i;
+    size_t n = (size_t)PC_NKINDS * b->nis_window;
+    *o++ = b->status;
+    *o++ = b->rec_n;
+    for (i = 0; i < PC_NCOUNTS; i++) *o++ = (double)b->counts[i];
+    for (i = 0; i < PC_NKINDS; i++) {
+        *o++ = b->rejected_in_row[i];
+        *o++ = b->reacquire[i];
+        *o++ = b->nis_len[i];
+        *o++ = b->nis_head[i];
+    }
+    for (i = 0; i <= PC_MAX_RECOVERIES; i++) *o++ = b->rec_t[i];
+    for (i = 0; i < (int)n; i++) *o++ = b->nis_buf[i];
+    for (i = 0; i < (int)n; i++) *o++ = b->dof_buf[i];
+    memcpy(o, b->state, b->n_state * sizeof(double));
+}
+
+void pc_filter_load(void* f, const double* o) {
+    pc_book_t* b = (pc_book_t*)f;
+    int i;
+    size_t n = (size_t)PC_NKINDS * b->nis_window;
+    b->status = (int)*o++;
+    b->rec_n = (int)*o++;
+    for (i = 0; i < PC_NCOUNTS; i++) b->counts[i] = (long)*o++;
+    for (i = 0; i < PC_NKINDS; i++) {
+        b->rejected_in_row[i] = (int)*o++;
+        b->reacquire[i] = (int)*o++;
+        b->nis_len[i] = (int)*o++;
+        b->nis_head[i] = (int)*o++;
+    }
+    for (i = 0; i <= PC_MAX_RECOVERIES; i++) b->rec_t[i] = *o++;
+    for (i = 0; i < (int)n; i++) b->nis_buf[i] = *o++;
+    for (i = 0; i < (int)n; i++) b->dof_buf[i] = (int)*o++;
+    memcpy(b->state, o, b->n_state * sizeof(double));
+    b->n_events = 0;
+}
