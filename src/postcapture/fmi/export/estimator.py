@@ -24,8 +24,8 @@ Variables (value references in this order):
   ``mekf_sigma_v``, ``mekf_sigma_u`` (dual) and ``star_norm_tolerance`` (a star-tracker quaternion whose norm
   is further from 1 is refused as an outlier).
 - outputs: ``q_BN_w/x/y/z``, ``omega_BN_B_x/y/z`` (rad/s), ``attitude_sigma_x/y/z`` (rad), ``gyro_bias_x/y/z``
-  (rad/s), ``target_mass`` and ``target_mass_sigma`` (kg), the plant's parameter vector ``p[...]`` with its
-  1-sigma ``p_sigma[...]`` (the target hub's mass, first moment and inertia in T, and the factors), the NIS
+  (rad/s), ``target_mass`` and ``target_mass_sigma`` (kg), the plant's parameter vector ``p.<name>`` with its
+  1-sigma ``p_sigma.<name>`` (the target hub's mass, first moment and inertia in T, and the factors), the NIS
   of the accepted updates ``nis_gyro``, ``nis_star``, ``nis_accel``, ``nis_encoders`` (NaN when none),
   ``n_missing``, ``n_outliers``, ``recoveries`` and ``diverged`` (1 once a filter diverged).
 """
@@ -127,8 +127,8 @@ def estimator_variables(n_arm: int, n_u: int, param_names, *, dual: bool, q0, R_
     L.add("GYRO_BIAS", [f"gyro_bias_{a}" for a in "xyz"], OUTPUT, [0] * 3, unit="rad/s")
     L.add("MASS", ["target_mass"], OUTPUT, [0], unit="kg")
     L.add("MASS_SIGMA", ["target_mass_sigma"], OUTPUT, [0], unit="kg")
-    L.add("P", [f"p[{n}]" for n in param_names], OUTPUT, [0] * len(param_names))
-    L.add("P_SIGMA", [f"p_sigma[{n}]" for n in param_names], OUTPUT, [0] * len(param_names))
+    L.add("P", [f"p.{n}" for n in param_names], OUTPUT, [0] * len(param_names))
+    L.add("P_SIGMA", [f"p_sigma.{n}" for n in param_names], OUTPUT, [0] * len(param_names))
     L.add("NIS", ["nis_gyro", "nis_star", "nis_accel", "nis_encoders"], OUTPUT, [0] * 4)
     L.add("N_MISSING", ["n_missing"], OUTPUT, [0])
     L.add("N_OUTLIERS", ["n_outliers"], OUTPUT, [0])
