@@ -129,6 +129,18 @@ def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
     return (Eu1 - u0) / dt, J
 
 
+def tidal_mean_B0(q0_BN, r0_N, q1_BN, r1_N, r_B, mean_motion: float, t0: float, t1: float) -> np.ndarray:
+    if not mean_motion:
+        return np.zeros(3)
+    n2 = mean_motion**2
+    total = np.zeros(3)
+    for q, r, t in ((q0_BN, r0_N, t0), (q1_BN, r1_N, t1)):
+        p = np.asarray(r, dtype=float) + rot.dcm_from_quat(q).T @ np.asarray(r_B, dtype=float)
+        z = np.array([np.cos(mean_motion * t), np.sin(mean_motion * t), 0.0])
+        total += n2 * (3.0 * z * (z @ p) - p)
+    return rot.dcm_from_quat(q0_BN) @ (0.5 * total)
+
+
 def calibration_matrix(c) -> np.ndarray:
     """``C`` (3, 3) of a calibration vector ``c = (s (3), m (6))``."""
     M = np.zeros((3, 3))
@@ -856,6 +868,10 @@ class AugmentedEKF(FilterBase):
         x = self.x
         phi = rot.box_minus(m.attitude(x), q0)
         f, J = mean_specific_force(phi, v0, w0, m.chaser_velocity(x), m.body_rate(x), self.r_accel, self._dt)
+        if self.tuning.mean_motion:  # the reading is the acceleration less the tidal field (the cycle's end position)
+            r1 = m.chaser_position(x)
+            f = f - tidal_mean_B0(q0, r1, m.attitude(x), r1, self.r_accel, self.tuning.mean_motion,
+                                  self.t - self._dt, self.t)
         H = np.zeros((3, N))
         H[:, self.att] = J["att1"]
         H[:, m.tangent_velocity] = J["v1"]

@@ -44,12 +44,14 @@ def _close(a, b, what: str, rtol: float = RTOL) -> None:
     assert err <= rtol * scale, f"{what}: max difference {err:.3g} against a scale of {scale:.3g}"
 
 
-def _plan(profile: str, duration: float, *, faults=(), calibration: bool = False):
+def _plan(profile: str, duration: float, *, faults=(), calibration: bool = False, orbit: bool = False):
     from postcapture.studies.setup import plan_run
 
     sc = load_scenario("envisat")
     if faults:
         sc = sc.model_copy(update={"faults": tuple(faults)})
+    if orbit:  # the filters model the orbit's gravity gradient (the accelerometer's tidal term)
+        sc = sc.model_copy(update={"orbit": sc.orbit.model_copy(update={"filters": "model"})})
     plan = plan_run(sc, profile=profile, cases=("dual", "joint"), duration=duration)
     changes = {"model_noise": 1.08e-9}
     if calibration:
@@ -67,13 +69,10 @@ def _sensors(plan):
 
 def _augmented(plan, q0, name: str, reference: bool):
     """The recommended parameter filter: the engine's, or the Python reference built from the same arguments."""
-    from postcapture.core import rotations as rot  # noqa: F401
-    from postcapture.dynamics.build import build_system
     from postcapture.dynamics.process_model import NativeProcessModel
     from postcapture.studies import robust
 
-    est = plan.scenario.estimation
-    model = NativeProcessModel(build_system(plan.scenario), est.model_step, est.integrator, name=name)
+    model = NativeProcessModel.for_filters(plan.scenario, name=name)
     if not reference:
         return robust.build_augmented(plan, model, q0, name=name)
     captured = {}
@@ -139,6 +138,17 @@ def test_the_recommended_schemes_agree_with_the_python_filters(short_run, scheme
     want = _run_scheme(plan, scheme, sensors, q0, reference=True)
     _compare(got, want, f"{scheme} ({plan.profile_name})")
     assert got.counts["updates"] > 400
+
+
+def test_the_filters_model_of_the_orbit_agrees():
+    plan = _plan("realistic", 10.0, orbit=True)
+    sensors, q_true0, dq0 = _sensors(plan)
+    from postcapture.core import rotations as rot
+
+    q0 = rot.box_plus(q_true0, dq0)
+    got = _run_scheme(plan, "joint", sensors, q0, reference=False)
+    want = _run_scheme(plan, "joint", sensors, q0, reference=True)
+    _compare(got, want, "joint, orbit modelled")
 
 
 def test_faults_recoveries_and_the_gyro_calibration_agree():

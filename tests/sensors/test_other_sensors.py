@@ -94,3 +94,20 @@ def test_profiles():
     assert tweaked.rate == 100.0 and tweaked.sigma_v == real.gyro.sigma_v
     with pytest.raises(ScenarioError, match="'reference' or 'realistic'"):
         get_profile("optimistic")
+
+
+def test_an_accelerometer_scale_step_multiplies_the_true_specific_force():
+    from types import SimpleNamespace
+
+    from postcapture.sensors.faults import apply_faults
+
+    t = np.arange(101) * 0.1
+    f = np.vstack([0.01 + 0.0 * t, np.sin(t) * 1e-3, 0.0 * t])
+    rec = measure_accelerometer(AccelerometerParams(sigma=1e-4, bias_B=[1e-4, 0, 0]), t, f,
+                                rng=np.random.default_rng(4))
+    fault = SimpleNamespace(kind="accelerometer_scale_step", time=5.0, step=(1e-3, -2e-3, 0.0))
+    out = apply_faults({"accelerometer": rec}, [fault])["accelerometer"]
+    before, after = t < 5.0, t >= 5.0
+    np.testing.assert_array_equal(out.values[:, before], rec.values[:, before])
+    expected = rec.values[:, after] + np.array([[1e-3], [-2e-3], [0.0]]) * f[:, after]
+    np.testing.assert_allclose(out.values[:, after], expected, rtol=0, atol=1e-18)

@@ -5,6 +5,8 @@ Kinds (times in s, steps in SI):
 - ``star_tracker_outage``, ``gyro_outage``, ``accelerometer_outage``: no samples on ``[start, stop)``;
 - ``gyro_bias_step`` (rad/s), ``accelerometer_bias_step`` (m/s^2): the bias jumps by ``step`` (3, body
   axes) at ``time`` and stays;
+- ``accelerometer_scale_step``: the scale-factor errors of the three axes jump by ``step`` (relative:
+  1e-3 is 1000 ppm) at ``time`` (0 for the whole run) and stay;
 - ``joint_stuck``: joint ``joint``'s sensor repeats its last sample before ``start`` on
   ``[start, stop)``; ``joint_dropout``: it gives no samples there.
 
@@ -21,7 +23,8 @@ from postcapture.config.types import Frozen, Instant, Vec3, problem
 
 __all__ = ["Outage", "BiasStep", "JointFault", "Fault", "FAULT_KINDS", "STEP_LIMITS", "fault_window"]
 
-STEP_LIMITS = {"gyro_bias_step": (0.01, "rad/s"), "accelerometer_bias_step": (1.0, "m/s^2")}
+STEP_LIMITS = {"gyro_bias_step": (0.01, "rad/s"), "accelerometer_bias_step": (1.0, "m/s^2"),
+               "accelerometer_scale_step": (0.1, "(relative)")}
 """Largest bias step per axis: 0.01 rad/s is 2000 deg/h, 1 m/s^2 a tenth of a g; no sensor that jumps further
 is a sensor with a bias."""
 
@@ -58,19 +61,21 @@ class Outage(_Window):
 
 
 class BiasStep(Frozen):
-    """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``.
+    """A bias jump of ``step`` (body axes; rad/s or m/s^2) at ``time``, or a jump of the accelerometer's
+    scale-factor errors (relative).
 
     Attributes
     ----------
     time : float
         When the bias jumps (s).
     step : list of 3 float
-        The jump, body axes (rad/s for the gyro, m/s^2 for the accelerometer).
+        The jump, body axes (rad/s for the gyro, m/s^2 for the accelerometer, relative for a scale factor).
     """
 
-    kind: Literal["gyro_bias_step", "accelerometer_bias_step"]
+    kind: Literal["gyro_bias_step", "accelerometer_bias_step", "accelerometer_scale_step"]
     time: Instant
-    step: Vec3 = Field(json_schema_extra={"unit": "rad/s or m/s^2", "limit": "0.01 rad/s (gyro), 1 m/s^2 (accelerometer)"})
+    step: Vec3 = Field(json_schema_extra={"unit": "rad/s, m/s^2 or 1", "limit": "0.01 rad/s (gyro), 1 m/s^2 "
+                                                                                 "(accelerometer), 0.1 (scale factor)"})
 
     @model_validator(mode="after")
     def _physical(self):
@@ -89,7 +94,7 @@ class JointFault(_Window):
 
 Fault = Annotated[Union[Outage, BiasStep, JointFault], Field(discriminator="kind")]
 FAULT_KINDS = ("star_tracker_outage", "gyro_outage", "accelerometer_outage", "gyro_bias_step",
-               "accelerometer_bias_step", "joint_stuck", "joint_dropout")
+               "accelerometer_bias_step", "accelerometer_scale_step", "joint_stuck", "joint_dropout")
 
 
 def fault_window(fault) -> tuple[float, float | None]:

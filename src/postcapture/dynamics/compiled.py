@@ -44,7 +44,7 @@ logger = logging.getLogger(__name__)
 
 SOURCES = ("pc_model.c", "pc_validate.c", "pc_data.c", "pc_inputs.c", "pc_passive.c", "pc_kinematics.c", "pc_aba.c",
            "pc_rnea.c", "pc_rnea_derivatives.c", "pc_crba.c", "pc_derivatives.c", "pc_liegroup.c", "pc_linalg.c",
-           "pc_integrator.c", "pc_jacobian.c")
+           "pc_integrator.c", "pc_jacobian.c", "pc_gravity.c")
 # the filters' arithmetic (pc_filter.h): compiled into the same library, and into the estimator FMUs
 FILTER_SOURCES = ("pc_recovery.c", "pc_kalman.c", "pc_so3.c", "pc_increments.c", "pc_parameters.c", "pc_mekf.c",
                   "pc_attitude_ekf.c", "pc_mass_filter.c", "pc_augmented.c")

@@ -112,6 +112,12 @@ class CompiledPlant:
         """A constant input added to the excitation in every following call (None: zero)."""
         self._eng.set_input_offset(self._m, self._d, None if u_extra is None else _vec(u_extra, self.nu, "u_extra"))
 
+    def set_orbit(self, mean_motion: float) -> None:
+        """A circular orbit of this mean motion (rad/s; 0: free space): the gravity gradient acts on every body
+        in every following call (``csrc/pc_gravity.c``; N is the orbit's local-vertical local-horizontal frame
+        at t = 0, x the zenith, y along the track, z the orbit normal)."""
+        self._eng.set_orbit(self._m, self._d, float(mean_motion))
+
     def stats(self) -> dict:
         """Steps, Newton iterations and factorizations since the last reset; the arena's high-water mark."""
         out = np.zeros(4, dtype=np.int64)

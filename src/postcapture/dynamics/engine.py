@@ -90,6 +90,7 @@ _STATUS_CALLS = {
     "pc_set_params": ([_H, _H, _D], 1),
     "pc_get_params": ([_H, _H, _D], 1),
     "pc_set_input_offset": ([_H, _H, _OD], 1),
+    "pc_set_orbit": ([_H, _H, _DBL], 1),
     "pc_set_newton": ([_H, _DBL, _DBL, _INT], 0),
     "pc_inputs": ([_H, _H, _DBL, _INT, _D], 1),
     "pc_inputs_eval": ([_INT, _OI, _OD, _INT, _OD, _OD, _INT, _INT, _D, _INT, _D], None),
@@ -146,7 +147,7 @@ class AugConfigStruct(ctypes.Structure):
                 ("full_noise", ctypes.c_int), ("n_spec", ctypes.c_int), ("arm_v", ctypes.POINTER(ctypes.c_int)),
                 ("param_spec", ctypes.POINTER(ctypes.c_int)), ("p_nominal", ctypes.POINTER(ctypes.c_double)),
                 ("step", ctypes.c_double), ("r_accel", ctypes.c_double * 3), ("sigma_gyro_walk", ctypes.c_double),
-                ("sigma_accel_walk", ctypes.c_double)]
+                ("sigma_accel_walk", ctypes.c_double), ("mean_motion", ctypes.c_double)]
 
 
 _U = ctypes.POINTER(UpdateStruct)
@@ -190,6 +191,7 @@ _FILTER_PLAIN = {
     "pc_mean_rate": (None, [_D, _D, _DBL, _D, _OD, _OD, _OD]),
     "pc_mean_specific_force": (None, [_D, _D, _D, _D, _D, _D, _DBL, _D, _OD]),
     "pc_triad_matrix": (None, [_D, _D]),
+    "pc_tidal_mean": (None, [_D, _D, _D, _D, _D, _DBL, _DBL, _DBL, _D]),
     "pc_triad_sensitivity": (None, [_D, _D]),
     "pc_log_cholesky": (None, [_D, _OD, _OD]),
     "pc_parammap_size": (_INT, [_I, _INT, _INT]),

@@ -60,11 +60,28 @@ class NativeProcessModel:
         self.accelerometer_position = np.array(system.scenario.chaser.accelerometer_position, dtype=float)
         self._panel_mass = system.layout.target_panel_mass if system.layout.has_target else 0.0
 
+    @classmethod
+    def for_filters(cls, scenario, system: System | None = None, *, variant: str = "flexible", side: str = "filters",
+                    name: str = "native") -> "NativeProcessModel":
+        """The filters' process model of a scenario: its ``[estimation]`` integrator and model step, the orbit's
+        gravity gradient as ``[orbit] filters`` says (``side = "truth"``: always), on ``system`` (built from
+        the scenario by default)."""
+        from postcapture.config.schema import orbit_mean_motion
+        from postcapture.dynamics.build import build_system
+
+        est = scenario.estimation
+        model = cls(build_system(scenario, variant) if system is None else system, est.model_step, est.integrator,
+                    name=name)
+        n = orbit_mean_motion(scenario, side)
+        if n:
+            model.plant.set_orbit(n)
+        return model
+
     def copy(self) -> "NativeProcessModel":
         """An independent copy (own instance: parameters, Newton settings, warm start) over the same
         constant model: a filter's own plant."""
         return NativeProcessModel(self._description, self.step, self._integrator_name, self.name,
-                                  plant=self.plant.copy())
+                                  plant=self.plant.copy())  # the instance's orbit too (pc_data_copy)
 
     def engine_handles(self):
         """This model's ``(pc_model_t*, pc_data_t*)`` in the compiled engine, for a filter that runs over its
@@ -156,6 +173,10 @@ class NativeProcessModel:
 
     def body_rate(self, x) -> np.ndarray:
         return np.asarray(x[self.nq + 3 : self.nq + 6], dtype=float)
+
+    def chaser_position(self, x) -> np.ndarray:
+        """Position of B's origin in N (m)."""
+        return np.asarray(x[0:3], dtype=float)
 
     def chaser_velocity(self, x) -> np.ndarray:
         """Velocity of B's origin (the chaser's centre of mass), body components (m/s)."""

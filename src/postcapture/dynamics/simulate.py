@@ -18,7 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from postcapture.config.limits import check_resources, estimate_simulation, truth_step_guess
-from postcapture.config.schema import Scenario
+from postcapture.config.schema import Scenario, orbit_mean_motion
 from postcapture.dynamics.accuracy import choose_step, newton_for
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.core import CompiledPlant
@@ -62,6 +62,7 @@ def simulate_system(
     t0: float = 0.0,
     progress: Callable[[float], None] | None = None,
     newton: tuple[float, float] | None = None,
+    mean_motion: float = 0.0,
 ) -> Trajectory:
     """Integrate a built system from ``(q0, v0)`` and record its outputs every ``sample_period``.
 
@@ -77,6 +78,9 @@ def simulate_system(
         Called with the fraction done (0..1) after each sample.
     newton : (float, float), optional
         Newton acceptance of the implicit stages (relative, absolute); default the core's (1e-10, 1e-15).
+    mean_motion : float
+        Of a circular orbit whose gravity gradient acts on every body (rad/s; 0: free space;
+        :meth:`postcapture.dynamics.core.CompiledPlant.set_orbit`).
 
     Returns
     -------
@@ -95,6 +99,8 @@ def simulate_system(
                                         integrator=integrator))
     n = int(round(duration / sample_period)) + 1
     plant = CompiledPlant(system, integrator)
+    if mean_motion:
+        plant.set_orbit(mean_motion)
     check_step(plant, q0, v0, step)
     if newton is not None:
         plant.set_newton(*newton)
@@ -159,13 +165,15 @@ def simulate(
     sample_period: float | None = None,
     parameters: dict | None = None,
     progress: Callable[[float], None] | None = None,
+    side: str = "truth",
 ) -> Trajectory:
     """Simulate a scenario's truth from its initial state.
 
     Settings default to the scenario's ``[simulation]`` section; ``parameters`` overrides named model
     parameters (:mod:`postcapture.dynamics.parameters`, e.g. a truth drawn from the priors). Without an
     explicit ``step`` (here or in ``[simulation]``), the scenario's declared accuracy sets the truth's step
-    (:func:`postcapture.dynamics.accuracy.choose_step`).
+    (:func:`postcapture.dynamics.accuracy.choose_step`). ``side = "filters"`` simulates what the filters'
+    model is instead (the orbit's gravity gradient only if ``[orbit] filters = "model"``).
 
     Examples
     --------
@@ -202,6 +210,7 @@ def simulate(
         integrator=integrator,
         progress=progress,
         newton=newton,
+        mean_motion=orbit_mean_motion(scenario, side),
     )
     traj.attrs["tolerance_rad"] = sim.tolerance if chosen else 0.0
     traj.attrs.update(

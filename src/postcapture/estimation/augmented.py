@@ -71,6 +71,8 @@ class AugmentedTuning:
     P0_gyro_scale, P0_gyro_misalignment : float
         Prior variances of the gyro's scale-factor errors (relative) and misalignments (rad^2); both 0
         (the default): the filter carries no calibration states.
+    mean_motion : float
+        Of the orbit whose tidal field the accelerometer's model takes out (rad/s; 0: free space).
     gate_probability : float or None
     recovery : RecoveryPolicy
     """
@@ -85,6 +87,7 @@ class AugmentedTuning:
     model_noise: float | np.ndarray = 0.0
     P0_gyro_scale: float = 0.0
     P0_gyro_misalignment: float = 0.0
+    mean_motion: float = 0.0
     gate_probability: float | None = 0.9999
     recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
 
@@ -216,7 +219,7 @@ class AugmentedEKF(FilterBase):
         cfg = _engine.AugConfigStruct(arm_v.size, ncal, n_consider, int(full), spec.size, arm_v.ctypes.data_as(ip),
                                       spec.ctypes.data_as(ip), p_nom.ctypes.data_as(dp), float(model.step),
                                       (ctypes.c_double * 3)(*self.r_accel), tun.sigma_gyro_bias_walk,
-                                      tun.sigma_accel_bias_walk)
+                                      tun.sigma_accel_bias_walk, float(tun.mean_motion))
         m_handle, d_handle = model.engine_handles()
         err = ctypes.create_string_buffer(512)
         handle = self._eng.aug_create(m_handle, d_handle, ctypes.byref(cfg), np.ascontiguousarray(x),
@@ -369,7 +372,7 @@ class AugmentedEKF(FilterBase):
         self._state[:] = snap
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
-        """Add ``sigma^2`` to the variance of a bias: the gyro's or the accelerometer's, on one axis."""
+        """Let a bias (the gyro's or the accelerometer's, on one axis) step now by ``sigma`` (1-sigma)."""
         index = (self.i_bg if sensor == "gyro" else self.i_ba).start + axis
         self._eng.aug_reopen(self._handle, index, float(sigma))
 

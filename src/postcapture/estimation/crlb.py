@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from postcapture.core import rotations as rot
-from postcapture.estimation.increments import mean_specific_force
+from postcapture.estimation.increments import calibration_sensitivity, mean_specific_force
 
 __all__ = ["MassCRLB", "mass_crlb"]
 
@@ -59,7 +59,7 @@ def _bound(J: np.ndarray, g: np.ndarray) -> float:
 
 
 def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, sigma_gyro: float, R_accel,
-              prior_information=None, bias_priors=None, progress=None) -> MassCRLB:
+              prior_information=None, bias_priors=None, calibration_priors=None, progress=None) -> MassCRLB:
     """Cramer-Rao bound of the target mass along the trajectory the model runs from ``x0``.
 
     Parameters
@@ -86,14 +86,18 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
         Inverse of the coordinates' prior covariance (none: no prior on them).
     bias_priors : (float, float), optional
         Prior variances per axis of the gyro and accelerometer biases (none: no prior).
+    calibration_priors : (float, float), optional
+        Prior variances of the gyro's scale-factor errors and misalignments: with them the gyro's nine
+        calibration terms (:mod:`postcapture.core.triad`) are nuisance parameters too (none: known).
     """
     t_grid = np.asarray(t_grid, dtype=float)
     dt = float(t_grid[1] - t_grid[0])
     att = model.tangent_attitude
     D = np.asarray(directions, dtype=float)
     k = D.shape[1]
-    n_t = k + 9  # c, gyro bias (3), accel bias (3), initial attitude (3)
-    ib, ia, iq = slice(k, k + 3), slice(k + 3, k + 6), slice(k + 6, k + 9)
+    n_cal = 0 if calibration_priors is None else 9
+    n_t = k + 9 + n_cal  # c, gyro bias (3), accel bias (3), initial attitude (3), gyro calibration (9)
+    ib, ia, iq, ic = slice(k, k + 3), slice(k + 3, k + 6), slice(k + 6, k + 9), slice(k + 9, k + 9 + n_cal)
     g = np.zeros(n_t)
     g[:k] = mass_gradient
     J = {name: np.zeros((n_t, n_t)) for name in ("star", "gyro", "accel", "joints")}
@@ -105,6 +109,8 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
     if bias_priors is not None:
         J_prior[ib, ib] = np.eye(3) / bias_priors[0]
         J_prior[ia, ia] = np.eye(3) / bias_priors[1]
+    if n_cal:
+        J_prior[ic, ic] = np.diag([1.0 / calibration_priors[0]] * 3 + [1.0 / calibration_priors[1]] * 6)
     x = np.array(x0, dtype=float)
     S = np.asarray(dx0_dp, dtype=float) @ D
     history = np.full(t_grid.size, np.nan)
@@ -115,6 +121,8 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
         G = np.zeros((3, n_t))
         G[:, :k] = (rot.right_jacobian_inv(phi) @ S1[att] - rot.left_jacobian_inv(phi) @ S[att]) / dt
         G[:, ib] = np.eye(3)
+        if n_cal:
+            G[:, ic] = calibration_sensitivity(phi / dt)
         J["gyro"] += G.T @ G / sigma_gyro**2
         G = np.zeros((3, n_t))
         G[:, :k] = S1[att]
@@ -144,9 +152,9 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
         return _bound(Jk + 1e-30 * np.eye(len(keep)), g[keep])
 
     return MassCRLB(
-        all_sensors=only(("star", "gyro", "accel", "joints"), range(k, k + 9)),
+        all_sensors=only(("star", "gyro", "accel", "joints"), range(k, k + 9 + n_cal)),
         star_tracker=only(("star",), range(k + 6, k + 9)),
-        gyro=only(("gyro",), range(k, k + 3)),
+        gyro=only(("gyro",), [*range(k, k + 3), *range(k + 9, k + 9 + n_cal)]),
         accelerometer=only(("accel",), range(k + 3, k + 6)),
         joints=only(("joints",), []),
         accelerations_only=only(("accel", "joints"), range(k + 3, k + 6)),

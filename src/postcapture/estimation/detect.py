@@ -12,8 +12,12 @@ Nikiforov, *Detection of Abrupt Changes*, 1993, section 2.2):
 with an alarm when either exceeds ``h``. For unit white innovations and ``kappa = 0.25``, ``h = 25`` the
 mean time between false alarms is about 2e6 samples per component (Siegmund's approximation), and a
 shift of ``delta`` sigmas is detected after about ``(h + 1.166) / (delta - kappa)`` samples (11 s at 10 Hz
-for half a sigma, 2 s for one and a half). The onset is the last instant the alarming statistic was zero;
-the shift's size, the mean of ``z`` since then.
+for half a sigma, 2 s for one and a half). The onset is then located by the generalised likelihood ratio
+of a step in the mean (Willsky and Jones, IEEE TAC 21(1), 1976, with the filter's own response to the
+step neglected): over the samples since the statistic was last zero (and a margin before), the onset
+``theta`` maximising ``(sum_{theta..k} z)^2 / (k - theta + 1)``; the shift's size is the mean of ``z``
+from there. (The last zero alone can sit well before the change: innovations that are not quite white,
+after a thrust ends, start the statistic climbing early.)
 
 **Model validity.** The normalised innovation squared of each sensor, summed over a sliding window, has a
 chi-square distribution when the filter's model holds. :class:`ValidityMonitor` flags a sensor *model
@@ -79,14 +83,16 @@ class Alarm:
 class ChangeDetector:
     """Two-sided CUSUM on each of ``m`` normalised innovation components (see the module docstring)."""
 
-    def __init__(self, m: int, drift: float, threshold: float):
+    def __init__(self, m: int, drift: float, threshold: float, memory: int = 1200):
         self.m, self.drift, self.threshold = int(m), float(drift), float(threshold)
+        self._history: deque = deque(maxlen=int(memory))  # (t, z (m,)) for locating an onset
         self.reset()
 
     def reset(self, component: int | None = None) -> None:
         """Start over (every component, or one)."""
         idx = slice(None) if component is None else component
         if component is None:
+            self._history.clear()
             self.g = np.zeros((2, self.m))
             self.since = np.full((2, self.m), np.nan)
             self.sums = np.zeros((2, self.m))
@@ -101,6 +107,9 @@ class ChangeDetector:
         """Feed normalised innovations ``z`` of the given components (all by default); return the alarms."""
         z = np.asarray(z, dtype=float)
         comp = np.arange(self.m) if components is None else np.asarray(components, dtype=int)
+        row = np.full(self.m, np.nan)
+        row[comp] = z
+        self._history.append((float(t), row))
         alarms = []
         for side, sign in ((0, 1.0), (1, -1.0)):
             g_new = np.maximum(0.0, self.g[side, comp] + sign * z - self.drift)
@@ -113,9 +122,22 @@ class ChangeDetector:
             self.counts[side, comp[live]] += 1
             self.g[side, comp] = g_new
             for i in comp[g_new > self.threshold]:
-                n = max(int(self.counts[side, i]), 1)
-                alarms.append(Alarm(int(i), float(self.since[side, i]), float(t), float(self.sums[side, i] / n)))
+                alarms.append(self._locate(int(i), float(self.since[side, i]), float(t)))
         return alarms
+
+    def _locate(self, i: int, since: float, t: float) -> Alarm:
+        """The alarm of component ``i``: the onset where a step in the mean is likeliest (see the module
+        docstring), searched from twice the CUSUM's excursion back."""
+        times = np.array([h[0] for h in self._history])
+        z = np.array([h[1][i] for h in self._history])
+        ok = np.isfinite(z) & (times >= since - (t - since))
+        times, z = times[ok], z[ok]
+        if z.size == 0:
+            return Alarm(i, since, t, 0.0)
+        tail = np.cumsum(z[::-1])[::-1]  # sum from each candidate onset to now
+        n = np.arange(z.size, 0, -1)
+        best = int(np.argmax(tail**2 / n))
+        return Alarm(i, float(times[best]), t, float(tail[best] / n[best]))
 
 
 @dataclass

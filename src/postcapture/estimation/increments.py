@@ -26,7 +26,7 @@ import numpy as np
 
 from postcapture.dynamics import engine as _engine
 
-__all__ = ["mean_rate", "mean_specific_force", "calibration_matrix", "calibration_sensitivity"]
+__all__ = ["mean_rate", "mean_specific_force", "tidal_mean_B0", "calibration_matrix", "calibration_sensitivity"]
 
 _JACOBIANS = ("att1", "att0", "v1", "w1", "v0", "w0")
 
@@ -80,6 +80,23 @@ def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
     _engine.engine().mean_specific_force(_v3(phi), _v3(v0_B), _v3(w0_B), _v3(v1_B), _v3(w1_B), _v3(r_B), float(dt),
                                          z, J)
     return z, dict(zip(_JACOBIANS, J))
+
+
+def tidal_mean_B0(q0_BN, r0_N, q1_BN, r1_N, r_B, mean_motion: float, t0: float, t1: float) -> np.ndarray:
+    """The orbit's tidal acceleration at a point of B averaged over a cycle, in the body frame at its start (3,).
+
+    ``g(x, t) = n^2 (3 (r . x) r - x)`` with ``r = (cos n t, sin n t, 0)`` the zenith in N (the orbit's
+    frame at t = 0, see :class:`postcapture.config.schema.Orbit`), at the point ``r_N + C_NB r_B`` at both
+    ends (trapezoid: the field changes over 0.1 s by a part in 10^4 of itself). An accelerometer reads the
+    specific force, the acceleration less this: ``(mean specific force) = (kinematic mean) - tidal``.
+    Its derivatives (about ``3 n^2``, 3e-6 (m/s^2)/m at 770 km) are left out of the measurement Jacobians.
+    Computed by the engine (``pc_increments.c``), the filters' own model of it.
+    """
+    out = np.zeros(3)
+    if mean_motion:
+        _engine.engine().tidal_mean(_v3(q0_BN), _v3(r0_N), _v3(q1_BN), _v3(r1_N), _v3(r_B), float(mean_motion),
+                                    float(t0), float(t1), out)
+    return out
 
 
 def calibration_matrix(c) -> np.ndarray:

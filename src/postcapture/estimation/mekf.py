@@ -283,7 +283,7 @@ class MEKF(FilterBase):
         self._state[:] = snap
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
-        """Add ``sigma^2`` to the variance of the gyro bias on one axis (``sensor`` is ``"gyro"``)."""
+        """Let the gyro bias on one axis (``sensor`` is ``"gyro"``) step now by ``sigma`` (1-sigma)."""
         self._P[3 + axis, 3 + axis] += sigma**2
 
 

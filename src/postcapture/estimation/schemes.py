@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from postcapture.core.errors import DomainError, SimulationError
+from postcapture.core.units import DEG_PER_HOUR
 from postcapture.estimation.detect import DetectionPolicy
 from postcapture.estimation.dual import SensorSuite, on_grid
 from postcapture.estimation.filter import FilterEvent, FilterStatus, Measurement
@@ -178,8 +179,11 @@ class _Run:
         ok = np.all(np.isfinite(self.grids["gyro"]), axis=0)
         self.last_gyro = np.maximum.accumulate(np.where(ok, np.arange(ok.size), -1))  # for the MEKF's input
         sigmas = {kind: np.sqrt(np.diag(R[kind])) for kind in KINDS}
+        # a re-opened bias is given at least its own prior (the turn-on uncertainty the filters started with)
+        floor = {"gyro": max(DEG_PER_HOUR, float(np.sqrt(filt.tuning.P0_gyro_bias))),
+                 "accelerometer": float(np.sqrt(filt.tuning.P0_accel_bias))}
         self.sup = None if detection is None else Supervisor(
-            detection, self.dt, sigmas, {"attitude": mekf, "plant": filt})
+            detection, self.dt, sigmas, {"attitude": mekf, "plant": filt}, bias_floor=floor)
 
     def _value(self, kind: str, k: int) -> np.ndarray:
         v = self.grids[kind][:, k]
@@ -232,6 +236,7 @@ class _Run:
         k0 = self.sup.handle(kind, alarm, self.t_grid)
         logger.warning("%s", self.sup.detections[-1].describe())
         for j in range(k0, k + 1):
+            self.sup.before_step(j)
             self.step(j)
 
     def run(self, panel_mass: float, progress, name: str) -> SchemeResult:

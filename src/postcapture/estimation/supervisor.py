@@ -73,6 +73,7 @@ class Supervisor:
     detections: list = field(default_factory=list)
     isolated: dict = field(default_factory=dict)  # sensor -> boolean mask of isolated components
     flags: list = field(default_factory=list)  # "gyro inconsistent" and the like, with their times
+    bias_floor: dict = field(default_factory=lambda: {"gyro": DEG_PER_HOUR})  # smallest re-opening, by sensor
 
     def __post_init__(self):
         self.detectors = {name: ChangeDetector(len(sig), self.policy.drift, self.policy.threshold)
@@ -80,6 +81,7 @@ class Supervisor:
         self.validity = ValidityMonitor(self.policy, self.dt)
         self._snaps: deque = deque(maxlen=max(int(self.policy.lookback / self.dt / 5) + 1, 2))
         self._reopened: dict = {}
+        self._pending = None
         for name, sig in self.sigmas.items():
             self.isolated[name] = np.zeros(len(sig), dtype=bool)
 
@@ -148,25 +150,28 @@ class Supervisor:
         k_onset = max(int(np.searchsorted(t_grid, alarm.onset)) - 1, 0)
         k0 = self._restore_before(k_onset)
         if action == "bias re-opened":
-            self._reopen(sensor, alarm, size)
+            self._pending = (k_onset, sensor, alarm, size)  # applied when the re-processing reaches the onset
             self._reopened[key] = alarm.time
         self.detections.append(Detection(alarm.time, alarm.onset, sensor, alarm.component, size, action))
         for det in self.detectors.values():
             det.reset()
         return k0
 
+    def before_step(self, k: int) -> None:
+        """Called before re-processing cycle ``k``: a pending bias re-opening happens at its onset."""
+        if self._pending is not None and k >= self._pending[0]:
+            _, sensor, alarm, size = self._pending
+            self._pending = None
+            self._reopen(sensor, alarm, size)
+
     def _reopen(self, sensor: str, alarm, size: float) -> None:
+        """Let the bias step at the located onset, by four times the detected size (the filters had absorbed
+        part of the step in other states before the alarm) and at least the bias's floor (``bias_floor``)."""
         axis = alarm.component
         if sensor == "star_tracker":  # an attitude drifting from the onset: a gyro bias step of that rate
-            rate = abs(size) / max(alarm.time - alarm.onset, self.dt)
-            sigma = max(2.0 * rate, DEG_PER_HOUR)
-            for f in self.filters.values():
-                if f is not None:
-                    f.reopen_bias("gyro", axis, sigma)
-            return
-        sigma = 2.0 * abs(size)
-        if sensor == "gyro":
-            sigma = max(sigma, DEG_PER_HOUR)
-        self.filters["plant"].reopen_bias(sensor, axis, sigma)
-        if sensor == "gyro" and self.filters.get("attitude") is not None:
-            self.filters["attitude"].reopen_bias("gyro", axis, sigma)
+            size = abs(size) / max(alarm.time - alarm.onset, self.dt)
+            sensor = "gyro"
+        sigma = max(4.0 * abs(size), self.bias_floor.get(sensor, 0.0))
+        for name, f in self.filters.items():
+            if f is not None and (name == "plant" or sensor == "gyro"):
+                f.reopen_bias(sensor, axis, sigma)

@@ -155,10 +155,19 @@ def _check_parent(p: Path) -> None:
     _probe(parent, p)
 
 
+_PROBE = ".postcapture-probe-"
+
+
 def _probe(folder: Path, target: Path) -> None:
     """Create and remove an empty file in ``folder``: permissions alone do not tell (``/proc``, a read-only
-    or full file system, a root user's ``access``)."""
-    probe = folder / temp_name(target.name[:_NAME_MAX - _DECORATION] or "out", ".probe")
+    or full file system, a root user's ``access``). Its name is not a temporary of the target's (a reader
+    watching for a write to begin must not mistake the check for it); one that a kill left is removed here."""
+    for entry in left_by_dead(folder, lambda name: _probe_pid(name)):
+        try:
+            os.unlink(entry.path)
+        except OSError:
+            pass
+    probe = folder / f"{_PROBE}{os.getpid()}-{secrets.token_hex(4)}"
     try:
         fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     except OSError as exc:
@@ -169,6 +178,11 @@ def _probe(folder: Path, target: Path) -> None:
         os.unlink(probe)
     except OSError:
         pass
+
+
+def _probe_pid(name: str) -> int | None:
+    head = name[len(_PROBE):].split("-", 1)[0] if name.startswith(_PROBE) else ""
+    return int(head) if head.isascii() and head.isdigit() else None
 
 
 def check_output_file(path) -> Path:

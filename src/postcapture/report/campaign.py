@@ -44,7 +44,18 @@ def campaign_table(summary: dict) -> str:
             f"{_num(c['mass_error_rms_kg'], '.1f', 8)}{_num(sd, '.1f', 8)}{_num(c['inside_3sigma_fraction'], '.0%', 7)}"
             f"{_num(c['nees_mean'], '.3g', 9)}{_num(c['attitude_nees_mean'], '.3g', 10)}{c['diverged_runs']:>5d}"
         )
-    notes = []
+    notes = [f"Every run counts: mean, std and RMS of the final mass error over all {summary['runs']} runs (a "
+             "diverged run with its last estimate); 'in 3s': the share of all runs whose final error lies inside "
+             "their own filter's 3 sigma (a diverged run counts as outside); NEES averaged over all runs."]
+    for n, c in summary["cases"].items():
+        if c.get("diverged_runs"):
+            notes.append(f"{n}: diverged in {c['diverged_runs']} of {summary['runs']} runs; over the others, mass "
+                         f"error RMS {_num(c.get('mass_error_rms_survivors_kg'), '.1f', 0)} kg, NEES "
+                         f"{_num(c.get('nees_mean_survivors'), '.3g', 0)} (mass), "
+                         f"{_num(c.get('attitude_nees_mean_survivors'), '.3g', 0)} (attitude).")
+        if c.get("runs_without_estimate"):
+            notes.append(f"{n}: {c['runs_without_estimate']} runs ended without any mass estimate (left out of the "
+                         "mean, std and RMS, counted outside 3 sigma).")
     for n, c in summary["cases"].items():
         if c.get("com_error_rms_m") is not None:
             text = (f"{n}: final error RMS of the target's CoM {c['com_error_rms_m']:.3g} m, of its principal "

@@ -91,12 +91,16 @@ def run_report(summary: dict, table: str, figures: list[str]) -> str:
              f"{_kg(s.get('true_mass_kg'))} kg, the filters start at {_kg(s.get('initial_mass_kg'))} kg.", "",
              "## Provenance", "", *_provenance(s.get("provenance") or {}), "",
              "## Consistency", "",
-             "| case | final mass error inside its 3σ | attitude inside 3σ | attitude NEES (3 expected) | diverged |",
-             "|---|---|---|---|---|"]
+             "| case | final mass error inside its 3σ | share of the run with the attitude inside 3σ | attitude NEES "
+             "(3 expected) | faults detected | model inconsistent | diverged |",
+             "|---|---|---|---|---|---|---|"]
     for name, m in s.get("cases", {}).items():
         err, sig = m.get("mass_error_kg"), m.get("mass_sigma_kg")
         inside = "-" if err is None or sig is None else ("yes" if abs(err) <= 3 * sig else "**no**")
-        lines.append(f"| {name} | {inside} | {_percent(m.get('inside_3sigma'))} | {_num(m.get('nees_mean'))} | "
+        detections = "; ".join(d["text"] for d in m.get("detections") or ()) or "none"
+        flags = "; ".join(f["text"] for f in m.get("model_inconsistent") or ()) or "no"
+        lines.append(f"| {name} | {inside} | {_percent(m.get('attitude_inside_3sigma_fraction'))} | "
+                     f"{_num(m.get('nees_mean'))} | {detections} | {flags} | "
                      f"{'no' if m.get('success', True) else '**' + (m.get('message') or 'yes') + '**'} |")
     lines += ["", "## Table", "", "```", table, "```", "", "## Every metric", "", *metrics_table(s.get("cases", {})),
               "", "## Figures", "", *_figures(figures)]

@@ -2,7 +2,7 @@
 
 A fault is any object with a ``kind`` and, by kind (see :mod:`postcapture.config.faults`):
 ``start``/``stop`` (s, ``stop`` None for the end of the run) for outages and joint faults, ``joint``
-(1-based) for joint faults, ``time`` (s) and ``step`` (3, SI) for bias steps. Faults are applied after
+(1-based) for joint faults, ``time`` (s) and ``step`` (3, SI; relative for a scale factor) for steps. Faults are applied after
 the noise is drawn, so a fault schedule never changes the noise of the samples it leaves alone.
 """
 
@@ -22,6 +22,7 @@ SENSOR_OF_FAULT = {
     "accelerometer_outage": "accelerometer",
     "gyro_bias_step": "gyro",
     "accelerometer_bias_step": "accelerometer",
+    "accelerometer_scale_step": "accelerometer",
     "joint_stuck": "joints",
     "joint_dropout": "joints",
 }
@@ -43,6 +44,9 @@ def _apply(rec: Measurements, fault) -> Measurements:
         on = _window(rec.t, fault.start, fault.stop)
         values[:, on] = np.nan
         valid[on] = False
+    elif kind.endswith("_scale_step"):  # the readings' scale changes: the true quantity times the step
+        on = rec.t >= fault.time
+        values[:, on] += np.asarray(fault.step, dtype=float)[:, None] * truth["f_B"][:, on]
     elif kind.endswith("_bias_step"):
         on = rec.t >= fault.time
         step = np.asarray(fault.step, dtype=float)[:, None]

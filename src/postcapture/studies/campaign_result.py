@@ -195,16 +195,21 @@ def _mean(x, mask):
 
 
 def _mass_stats(rows) -> dict:
-    """Final mass errors over the runs; a diverged run counts as a miss, whatever its last value."""
+    """Final mass errors over every run: a diverged run counts with its last estimate (and as outside its 3
+    sigma, whatever that estimate), the survivors' figures beside."""
     err = np.array([_final(c["mass_error"]) for c in rows])
     sig = np.array([_final(c["mass_sigma"]) for c in rows])
     failed = np.array([np.isfinite(c["diverged_at"]) for c in rows], dtype=bool)
-    ok = np.isfinite(err) & np.isfinite(sig) & ~failed
+    has = np.isfinite(err) & np.isfinite(sig)
+    ok = has & ~failed
     return {
-        "mass_error_mean_kg": _mean(err, ok),
-        "mass_error_std_kg": float(np.std(err[ok], ddof=1)) if ok.sum() > 1 else None,
-        "mass_error_rms_kg": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else None,
-        "mass_sigma_mean_kg": _mean(sig, ok),
+        "mass_error_mean_kg": _mean(err, has),
+        "mass_error_std_kg": float(np.std(err[has], ddof=1)) if has.sum() > 1 else None,
+        "mass_error_rms_kg": float(np.sqrt(np.mean(err[has] ** 2))) if has.any() else None,
+        "mass_error_rms_survivors_kg": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else None,
+        "runs_without_estimate": int((~has).sum()),
+        "mass_sigma_mean_kg": _mean(sig, has),
+        # the share of all runs whose final mass error lies inside their own filter's 3 sigma
         "inside_3sigma_fraction": float(np.mean(ok & (np.abs(err) <= 3.0 * sig))) if rows else None,
         "final_errors_kg": [float(x) for x in err],
         "diverged_runs": int(failed.sum()),
@@ -212,48 +217,72 @@ def _mass_stats(rows) -> dict:
 
 
 def _nees_stats(rows, t_grid, n) -> dict:
-    """Run-averaged NEES (mass 1, attitude 3) over time against the 95 % band; a diverged filter's NEES is left
-    out from its divergence on."""
+    """Run-averaged NEES (mass 1, attitude 3) over time against the 95 % band: over every run, every instant
+    (a diverged filter's too), and over the survivors (the runs whose filters never diverged)."""
     lo1, hi1 = chi2_bounds(1, n) if n else (float("nan"),) * 2
     lo3, hi3 = chi2_bounds(3, n) if n else (float("nan"),) * 2
-    stop = np.array([c["diverged_at"] for c in rows])
+    failed = np.array([np.isfinite(c["diverged_at"]) for c in rows], dtype=bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         mass_nees = np.array([(c["mass_error"] / c["mass_sigma"]) ** 2 for c in rows])
     att_nees = np.array([c["attitude_nees"] for c in rows])
-    avg_m = run_averaged_nees(mass_nees, t_grid, stop)[1:] if n else np.array([np.nan])
-    avg_a = run_averaged_nees(att_nees, t_grid, stop)[1:] if n else np.array([np.nan])
+    keep_all = np.full(len(rows), np.nan)
+    survivors = np.where(failed, -np.inf, np.nan)  # a diverged run is left out from the start
+
+    def averaged(z, stop, band):
+        avg = run_averaged_nees(z, t_grid, stop)[1:] if n else np.array([np.nan])
+        mean = float(np.nanmean(avg)) if np.isfinite(avg).any() else None
+        return mean, avg
+
+    m_all, avg_m = averaged(mass_nees, keep_all, (lo1, hi1))
+    m_surv, _ = averaged(mass_nees, survivors, (lo1, hi1))
+    a_all, _ = averaged(att_nees, keep_all, (lo3, hi3))
+    a_surv, _ = averaged(att_nees, survivors, (lo3, hi3))
     return {
-        "nees_mean": float(np.nanmean(avg_m)) if np.isfinite(avg_m).any() else None,
+        "nees_mean": m_all,
+        "nees_mean_survivors": m_surv,
         "nees_band": [float(lo1), float(hi1)],
+        # the share of the filter instants at which the run-averaged mass NEES lies inside its band
         "nees_inside_band_fraction": float(np.mean((avg_m >= lo1) & (avg_m <= hi1))),
-        "attitude_nees_mean": float(np.nanmean(avg_a)) if np.isfinite(avg_a).any() else None,
+        "attitude_nees_mean": a_all,
+        "attitude_nees_mean_survivors": a_surv,
         "attitude_nees_band": [float(lo3), float(hi3)],
     }
 
 
 def _target_stats(rows) -> dict:
-    """Final CoM and inertia errors over the runs that estimate them, and the share inside the filter's 3 sigma."""
+    """Final CoM and inertia errors over every run that has them (a diverged run with its last estimate), and the
+    share of (run, component) pairs inside the filter's own 3 sigma (a diverged run's count as outside)."""
     failed = np.array([np.isfinite(c["diverged_at"]) for c in rows], dtype=bool)
     com, inertia = np.array([c["com_error"] for c in rows]), np.array([c["inertia_error"] for c in rows])
     com_s, inertia_s = np.array([c["com_sigma"] for c in rows]), np.array([c["inertia_sigma"] for c in rows])
-    has = np.isfinite(com).all(axis=1) & ~failed if rows else np.zeros(0, bool)
+    has = np.isfinite(com).all(axis=1) if rows else np.zeros(0, bool)
     has_s = has & np.isfinite(com_s).all(axis=1) & np.isfinite(inertia_s).all(axis=1) if rows else has
+
+    def inside(err, sig):
+        ok = (np.abs(err) <= 3.0 * sig) & ~failed[:, None]
+        return float(np.mean(ok[has_s])) if has_s.any() else None
+
+    def per_component(err, sig):
+        ok = (np.abs(err) <= 3.0 * sig) & ~failed[:, None]
+        return [float(x) for x in np.mean(ok[has_s], axis=0)] if has_s.any() else None
+
     return {
         "com_error_rms_m": float(np.sqrt(np.mean(np.sum(com[has] ** 2, axis=1)))) if has.any() else None,
         "inertia_error_rms_kgm2": (float(np.sqrt(np.mean(np.sum(inertia[has, :3] ** 2, axis=1) / 3)))
                                    if has.any() else None),
-        # the share of (run, component) pairs whose final error lies inside the filter's own 3 sigma
-        "com_inside_3sigma_fraction": (float(np.mean(np.abs(com[has_s]) <= 3.0 * com_s[has_s]))
-                                       if has_s.any() else None),
-        "inertia_inside_3sigma_fraction": (float(np.mean(np.abs(inertia[has_s]) <= 3.0 * inertia_s[has_s]))
-                                           if has_s.any() else None),
+        "com_inside_3sigma_fraction": inside(com, com_s),
+        "inertia_inside_3sigma_fraction": inside(inertia, inertia_s),
+        # per component (CoM x, y, z; inertia xx, yy, zz, xy, xz, yz): the share of runs inside their 3 sigma
+        "com_inside_3sigma_by_component": per_component(com, com_s),
+        "inertia_inside_3sigma_by_component": per_component(inertia, inertia_s),
     }
 
 
 def summarize(result: CampaignResult) -> dict:
-    """Per case: final mass error mean, std and RMS over the runs, the share of runs inside their own 3 sigma,
-    the time-averaged NEES (mass and attitude) against the chi-square 95 % band for that many runs,
-    diverged runs, the final CoM and inertia errors and the Cramer-Rao bound."""
+    """Per case: final mass error mean, std and RMS over every run (diverged ones included, with their last
+    estimate; the survivors' RMS beside), the share of all runs inside their own 3 sigma, the time-averaged
+    NEES (mass and attitude) over all runs and over the survivors against the chi-square 95 % band for that
+    many runs, diverged runs, the final CoM and inertia errors and the Cramer-Rao bound."""
     n = len(result.runs)
     out = {"cases": {}, "runs": n, "dispersed": result.settings.get("dispersed", False),
            "profile": result.settings.get("profile"), "scenario": result.settings.get("scenario"),

@@ -21,7 +21,7 @@ from postcapture.studies.metrics import ARCSEC, case_metrics
 from postcapture.studies.pool import run_jobs
 from postcapture.studies.sensing import measure_all
 from postcapture.studies.setup import RunPlan, plan_run
-from postcapture.config.schema import Scenario
+from postcapture.config.schema import Scenario, orbit_mean_motion
 from postcapture.core import rotations as rot
 from postcapture.core.errors import CovarianceError, DomainError, FilterDivergenceError, SimulationError
 from postcapture.core.farrenkopf import farrenkopf_steady_state
@@ -116,8 +116,9 @@ def simulate_truth(plan: RunPlan, progress: Callable[[float], None] | None = Non
 def draw_sensors(plan: RunPlan, traj, seed: int):
     """The truth's sensor records under the plan's faults, and the filters' initial attitude error (rad, 3)."""
     rng = np.random.default_rng(seed)
-    sensors = measure_all(traj, plan.truth_profile, rng, plan.scenario.faults,
-                          accelerometer_position=plan.truth.scenario.chaser.accelerometer_position)
+    sensors = measure_all(traj, plan.truth_profile, rng, plan.faults,
+                          accelerometer_position=plan.truth.scenario.chaser.accelerometer_position,
+                          mean_motion=orbit_mean_motion(plan.truth.scenario, "truth"))
     dq0 = np.linalg.cholesky(plan.tuning.attitude_P0) @ rng.standard_normal(3)
     return sensors, dq0
 
@@ -152,7 +153,7 @@ def _run_case_unguarded(plan: RunPlan, case: str, sensors, q0_true, dq0, progres
     spec = CASES[case]
     theta0 = plan.initial_mass
     est = scenario.estimation
-    native = NativeProcessModel(build_system(scenario, spec.variant), est.model_step, est.integrator, name=spec.name)
+    native = NativeProcessModel.for_filters(scenario, variant=spec.variant, name=spec.name)
     q0 = rot.box_plus(np.asarray(q0_true, dtype=float), dq0)
     t_grid = plan.t_grid
     if spec.scheme in ("dual", "joint"):

@@ -19,6 +19,7 @@ import dataclasses
 
 import numpy as np
 
+from postcapture.config.schema import orbit_mean_motion
 from postcapture.core import rotations as rot
 
 from postcapture.studies.setup import RunPlan
@@ -147,7 +148,7 @@ def _rate_drift_walk(plan: RunPlan, min_time: float) -> float:
     finer_panels = n_seg is not None and any(p.segments != n_seg for _, p in sc.panels())
     horizon = max(plan.duration, sc.simulation.duration)
     est = sc.estimation
-    filters = simulate(sc, duration=horizon, integrator=est.integrator, step=est.model_step)
+    filters = simulate(sc, duration=horizon, integrator=est.integrator, step=est.model_step, side="filters")
     truth = simulate(sc.with_panel_segments(n_seg) if finer_panels else sc, duration=horizon)
     steps = (filters.t - filters.t[0]) / est.filter_step
     late = filters.t >= min(min_time, 0.5 * horizon)
@@ -177,14 +178,82 @@ def derive_model_noise(plan: RunPlan, *, min_time: float = 10.0) -> float:
 
 def with_model_noise(plan: RunPlan) -> RunPlan:
     """The plan with its model error derived: the model noise (:func:`derive_model_noise`) unless the
-    scenario sets it, and the discretisation's bias of the parameters (:func:`discretisation_bias`)."""
+    scenario sets it, and the discretisation's bias of the parameters (:func:`discretisation_bias`).
+
+    Both depend only on the nominal scenario, the profile, the run's grid and the code, not on the run's
+    truth or noise: they are kept in the user cache (``derived/`` beside the compiled cores) under a key of
+    all of these, so a second run of the same scenario does not derive them again (about 15 s of CPU on
+    Envisat). A damaged or foreign cache file is derived again and replaced.
+    """
     tuning = plan.tuning
-    if tuning.model_noise is None:
+    cached = _load_derived(plan)
+    if cached is not None and tuning.model_noise is None and tuning.discretisation_bias is None:
+        noise, bias = cached
+        return dataclasses.replace(plan, tuning=dataclasses.replace(tuning, model_noise=noise,
+                                                                    discretisation_bias=bias))
+    declared = tuning.model_noise is not None
+    if not declared:
         tuning = dataclasses.replace(tuning, model_noise=derive_model_noise(plan))
     if tuning.discretisation_bias is None:
         tuning = dataclasses.replace(tuning, discretisation_bias=discretisation_bias(
             dataclasses.replace(plan, tuning=tuning)))
+        if not declared:
+            _save_derived(plan, float(tuning.model_noise), tuning.discretisation_bias)
     return dataclasses.replace(plan, tuning=tuning)
+
+
+_CODE_FINGERPRINT: list = []
+
+
+def _derived_path(plan: RunPlan):
+    """Where a plan's derived model error is kept: a key of the scenario, profile, grid and the package's code."""
+    import hashlib
+    from importlib import resources
+
+    from postcapture.dynamics.compiled import cache_dir
+
+    if not _CODE_FINGERPRINT:
+        h = hashlib.sha256()
+        root = resources.files("postcapture")
+        for sub in ("dynamics", "estimation", "sensors", "studies", "config", "core"):
+            for f in sorted((root / sub).iterdir(), key=lambda x: x.name):
+                if f.name.endswith(".py"):
+                    h.update(f.name.encode() + f.read_bytes())
+            csrc = root / sub / "csrc"
+            if csrc.is_dir():
+                for f in sorted(csrc.iterdir(), key=lambda x: x.name):
+                    h.update(f.name.encode() + f.read_bytes())
+        _CODE_FINGERPRINT.append(h.hexdigest())
+    key = hashlib.sha256("|".join([plan.scenario.model_dump_json(), plan.profile_name, repr(plan.duration),
+                                   repr(plan.initial_mass), _CODE_FINGERPRINT[0]]).encode()).hexdigest()[:24]
+    return cache_dir() / "derived" / f"model_error_{key}.npz"
+
+
+def _load_derived(plan: RunPlan):
+    path = _derived_path(plan)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            noise, bias = float(z["model_noise"]), np.array(z["discretisation_bias"], dtype=float)
+    except (OSError, ValueError, KeyError, EOFError):
+        return None
+    if not np.isfinite(noise) or bias.ndim != 2 or bias.shape[1] != plan.t_grid.size or not np.all(np.isfinite(bias)):
+        return None
+    return noise, bias
+
+
+def _save_derived(plan: RunPlan, noise: float, bias: np.ndarray) -> None:
+    from postcapture.io import write_atomic
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            np.savez(f, model_noise=np.array(noise), discretisation_bias=bias)
+
+    try:
+        write_atomic(_derived_path(plan), write)
+    except OSError as exc:  # a read-only cache costs a derivation per run, nothing more
+        import logging
+
+        logging.getLogger(__name__).warning("derived model error not cached (%s)", exc)
 
 
 def discretisation_bias(plan: RunPlan) -> np.ndarray:
@@ -212,9 +281,10 @@ def discretisation_bias(plan: RunPlan) -> np.ndarray:
         return np.zeros((n_p, plan.t_grid.size))
     truth = simulate(sc.with_panel_segments(n_seg), duration=plan.duration)
     sensors = measure_all(truth, noiseless(plan.filter_profile), np.random.default_rng(0),
-                          accelerometer_position=sc.chaser.accelerometer_position)
+                          accelerometer_position=sc.chaser.accelerometer_position,
+                          mean_motion=orbit_mean_motion(sc, "truth"))
     est = sc.estimation
-    model = NativeProcessModel(build_system(sc), est.model_step, est.integrator)
+    model = NativeProcessModel.for_filters(sc)
     nominal = model.params
     at_nominal = dataclasses.replace(plan, initial_mass=plan.nominal_mass)
     filt = build_augmented(at_nominal, model, truth["q_BN"][:, 0], name="discretisation")
@@ -287,6 +357,7 @@ def build_augmented(plan: RunPlan, model, q0_BN, *, name: str,
         model_noise=model_noise_vector(model, tun.model_noise if model_noise is None else model_noise),
         P0_gyro_scale=tun.gyro_scale_sigma**2,
         P0_gyro_misalignment=tun.gyro_misalignment_sigma**2,
+        mean_motion=orbit_mean_motion(plan.scenario, "filters"),
         gate_probability=tun.gate_probability,
     )
     return AugmentedEKF(model, x0, params=pmap, n_consider=pmap.size - est_map.size, eta0=eta0, P_eta=P_eta, S0=S0,
@@ -315,10 +386,11 @@ def bound_with_model_error(plan: RunPlan, model_noise, progress=None):
     sc = plan.scenario
     est = sc.estimation
     traj = simulate(sc, duration=plan.duration, parameters=plan.truth.parameters, integrator=est.integrator,
-                    step=est.model_step)  # the filters' own model: its estimate never leaves the truth
+                    step=est.model_step, side="filters")  # the filters' own model: its estimate never leaves the truth
     sensors = measure_all(traj, noiseless(plan.filter_profile), np.random.default_rng(0),
-                          accelerometer_position=sc.chaser.accelerometer_position)
-    model = NativeProcessModel(build_system(sc), est.model_step, est.integrator)
+                          accelerometer_position=sc.chaser.accelerometer_position,
+                          mean_motion=orbit_mean_motion(sc, "filters"))
+    model = NativeProcessModel.for_filters(sc)
     nominal = model.params
     estimate, consider = parameter_groups(plan)
     pmap = ParameterMap(model.param_names, nominal, estimate + tuple(g for g in consider if g not in estimate))
@@ -362,19 +434,21 @@ def mass_bounds(plan: RunPlan, progress=None) -> dict:
 
     sc = plan.truth.scenario
     est = plan.scenario.estimation
-    model = NativeProcessModel(plan.truth.build(), est.model_step, est.integrator)
+    model = NativeProcessModel.for_filters(sc, plan.truth.build(), side="truth")
     x0 = model.initial_state()
     dx0 = initial_state_sensitivity(model)
     prof = plan.truth_profile
     common = dict(R_star=prof.star_tracker.covariance(), sigma_gyro=prof.gyro.sample_sigma,
                   R_accel=np.concatenate([np.full(3, prof.accelerometer.sigma**2),
                                           np.full(plan.scenario.n_arm, prof.joints.sample_sigma**2)]),
-                  bias_priors=(plan.tuning.gyro_bias_initial_sigma**2, plan.tuning.accelerometer_bias_initial_sigma**2))
+                  bias_priors=(plan.tuning.gyro_bias_initial_sigma**2, plan.tuning.accelerometer_bias_initial_sigma**2),
+                  calibration_priors=((plan.tuning.gyro_scale_sigma**2, plan.tuning.gyro_misalignment_sigma**2)
+                                      if plan.tuning.gyro_scale_sigma > 0 else None))
     dpdm = model.system.dparams_dmass()
     known = mass_crlb(model, x0, dx0, plan.t_grid, directions=dpdm[:, None], mass_gradient=np.ones(1),
                       progress=None if progress is None else (lambda f: progress(0.5 * f)), **common)
     estimate, consider = parameter_groups(plan)
-    nominal = NativeProcessModel(build_nominal(plan), est.model_step, est.integrator)
+    nominal = NativeProcessModel.for_filters(plan.scenario, build_nominal(plan))
     pmap = ParameterMap(model.param_names, nominal.params, estimate + tuple(g for g in consider if g not in estimate))
     _, P_prior = parameter_prior(plan, pmap, initial_mass=plan.nominal_mass)
     D = pmap.jacobian(pmap.from_model(model.params))

@@ -91,17 +91,26 @@ def interval_mean_specific_force(t: np.ndarray, q_BN: np.ndarray, v_B: np.ndarra
 
 
 def measure_all(traj, profile: SensorProfile, rng: np.random.Generator, faults=(), *,
-                accelerometer_position=(0.0, 0.0, 0.0)) -> SensorSuite:
+                accelerometer_position=(0.0, 0.0, 0.0), mean_motion: float = 0.0) -> SensorSuite:
     """Every sensor of the profile sampled from a truth trajectory, with an explicit generator.
 
     The gyro and the accelerometer output increments over each sample period (mean rate and mean
-    specific force at ``accelerometer_position`` in B, m); the joints' encoders their angles.
+    specific force at ``accelerometer_position`` in B, m, less the tidal field of an orbit of
+    ``mean_motion`` rad/s); the joints' encoders their angles.
 
     ``faults`` (see :mod:`postcapture.config.faults`) are applied after the noise is drawn: the same seed
     gives the same noise with or without them.
     """
     t = traj.t
     f_B = interval_mean_specific_force(t, traj["q_BN"], traj.v[0:3], traj.v[3:6], accelerometer_position)
+    if mean_motion:  # in orbit the accelerometer reads the acceleration less the tidal field
+        from postcapture.estimation.increments import tidal_mean_B0
+
+        q, r = traj["q_BN"], traj["r_BN_N"]
+        for k in range(t.size - 1):
+            f_B[:, k] -= tidal_mean_B0(q[:, k], r[:, k], q[:, k + 1], r[:, k + 1], accelerometer_position,
+                                       mean_motion, t[k], t[k + 1])
+        f_B[:, -1] = f_B[:, -2]
     records = {
         "star_tracker": measure_star_tracker(profile.star_tracker, t, traj["q_BN"], rng=rng),
         "gyro": measure_gyro(profile.gyro, t, interval_mean_rate(t, traj["q_BN"]), rng=rng),

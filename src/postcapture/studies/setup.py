@@ -44,6 +44,7 @@ class RunPlan:
     seed: int
     plant: str = "native"
     mapping: str | None = None
+    faults: tuple = ()  # the truth's sensor faults (the filters are not told)
 
     @property
     def t_grid(self) -> np.ndarray:
@@ -103,6 +104,18 @@ def plan_run(
     if problems:
         raise ScenarioError(problems)
     truth = nominal_truth(scenario) if truth is None else truth
+    # the faults are the truth's sensors': a truth scenario file carries its own; the nominal scenario's are
+    # refused beside a truth scenario that does not declare them (they would be ignored without a word)
+    faults = truth.scenario.faults
+    if truth.source.startswith("scenario") and scenario.faults and scenario.faults != faults:
+        raise ScenarioError([Problem("faults", "faults declared in the truth scenario (they belong to the truth's "
+                                               "sensors): move them there", f"{len(scenario.faults)} in the nominal "
+                                               f"scenario, {len(faults)} in the truth scenario")])
+    if faults is not scenario.faults:
+        fault_errors = [Problem(f"truth scenario: {path}", expected, found)
+                        for path, expected, found in fault_problems(faults, T)]
+        if fault_errors:
+            raise ScenarioError(fault_errors)
     m_nom = float(scenario.target.mass)
     m0 = m_nom + dm0
     panels = sum(p.mass for p in scenario.target.panels)
@@ -123,4 +136,4 @@ def plan_run(
             accelerometer=dataclasses.replace(truth_profile.accelerometer, bias_B=np.asarray(truth.accel_bias_B)))
     tuning = resolve_tuning(scenario, profile, filter_profile, initial_mass=m0)
     return RunPlan(scenario, truth, profile, truth_profile, filter_profile, tuning, T, tuple(cases), m_nom, m0,
-                   est.seed if seed is None else int(seed), plant, mapping)
+                   est.seed if seed is None else int(seed), plant, mapping, faults=tuple(faults))

@@ -23,7 +23,7 @@ struct pc_aug {
     int N, n, nx, nq, nv, np, n_eta, n_cal, n_arm, full_noise, n_spec;
     int i_bg, i_ba, i_cal, i_eta, i_clone;
     int arm_v[PC_MAX_MEAS];
-    double step, r_acc[3], sg, sa;
+    double step, r_acc[3], sg, sa, n_orbit;
     int* spec;
     unsigned char* consider;
     double *p_nom, *q_noise, *eta_init, *P_init;
@@ -133,6 +133,7 @@ pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t
     for (i = 0; i < 3; i++) f->r_acc[i] = cfg->r_accel[i];
     f->sg = cfg->sigma_gyro_walk;
     f->sa = cfg->sigma_accel_walk;
+    f->n_orbit = cfg->mean_motion;
     carve(f, (double*)(f + 1), m->nz);
     f->spec = (int*)(f->book.window_bound + f->book.n_window_bound + 1);
     f->n_spec = cfg->n_spec;
@@ -314,6 +315,11 @@ static void accelerometer_model(pc_aug_t* f, double* z, double* H) {
     pc_q_from_xyzw(f->x + 3, q1);
     pc_q_box_minus(q1, f->cq, phi);
     pc_mean_specific_force(phi, f->cv, f->cw, f->x + f->nq, f->x + f->nq + 3, f->r_acc, *f->dt, z, J);
+    if (f->n_orbit != 0.0) { /* the reading is the acceleration less the tidal field (at the cycle's end position) */
+        double g[3];
+        pc_tidal_mean(f->cq, f->x, q1, f->x, f->r_acc, f->n_orbit, *f->t - *f->dt, *f->t, g);
+        for (i = 0; i < 3; i++) z[i] -= g[i];
+    }
     for (i = 0; i < 3; i++) {
         int b;
         for (b = 0; b < 6; b++)

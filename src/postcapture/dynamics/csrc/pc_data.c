@@ -47,7 +47,8 @@ size_t pc_arena_need(const pc_model_t* m) {
     size_t measure = 3 * (nu + 2) + 2 * nv * nv + nv * (nu + np + 2) + 2 * nv * nv + nv * (np + 2) + 2 * nv + 80;
     size_t partials = 2 * nv + nv * np + 16;
     size_t rnea_der = 24 * nv + 140 * nj + 64;
-    return stages + sens + chain + measure + partials + rnea_der + 256;
+    size_t gravity = 12 * nj + 16;
+    return stages + sens + chain + measure + partials + rnea_der + gravity + 256;
 }
 
 /* ------------------------------------------------------------------------------------ life cycle */
@@ -134,6 +135,7 @@ int pc_data_copy(const pc_model_t* m, pc_data_t* dst, const pc_data_t* src) {
     if (err) return err;
     memcpy(dst->u_extra, src->u_extra, (size_t)m->nu * sizeof(double));
     dst->newton = src->newton;
+    dst->orbit_n = src->orbit_n;
     return PC_OK;
 }
 

@@ -89,6 +89,8 @@ PC_API void pc_mean_rate(const double* q0, const double* q1, double dt, double* 
                          double* phi);
 PC_API void pc_mean_specific_force(const double* phi, const double* v0, const double* w0, const double* v1,
                                    const double* w1, const double* r, double dt, double* z, double* J);
+PC_API void pc_tidal_mean(const double* q0, const double* r0, const double* q1, const double* r1, const double* rB,
+                          double n, double t0, double t1, double* out);
 PC_API void pc_triad_matrix(const double* c, double* C);
 PC_API void pc_triad_sensitivity(const double* w, double* D);
 
@@ -146,6 +148,7 @@ typedef struct {
     const double* p_nominal;
     double step, r_accel[3];
     double sigma_gyro_walk, sigma_accel_walk;
+    double mean_motion; /* of the orbit whose tidal field the accelerometer's model takes out (0: free space) */
 } pc_aug_config_t;
 PC_API pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t* cfg, const double* x0,
                                const double* eta0, const double* P0, const double* q_noise, const pc_policy_t* policy,

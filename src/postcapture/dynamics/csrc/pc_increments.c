@@ -3,7 +3,7 @@
  * the states at its two ends (estimation/increments.py explains them), with their Jacobians:
  *   - the gyro's mean rate box_minus(q1, q0) / dt;
  *   - the accelerometer's mean specific force (Exp(phi) u1 - u0) / dt, u = v + w x r its point's velocity
- *     (a gravity-gradient term, when the orbit is modelled, adds its own mean to z: the one place it goes);
+ *     less, when the filters model the orbit, the tidal acceleration's mean over the cycle (pc_tidal_mean);
  * and the calibration of a sensor triad, C = I + diag(s) + M (core/triad.py: c = (s, the six off-diagonal
  * terms of M, row-major)) with d (C w) / d c.
  */
@@ -71,4 +71,35 @@ void pc_triad_sensitivity(const double* w, double* D) {
     for (i = 0; i < 27; i++) D[i] = 0.0;
     for (i = 0; i < 3; i++) D[9 * i + i] = w[i];
     for (i = 0; i < 6; i++) D[9 * OFF[i][0] + 3 + i] = w[OFF[i][1]];
+}
+
+/* active rotation R_NB of a scalar-first q_BN (normalised): C_BN = R^T */
+static void rotation(const double* q_in, double* R) {
+    double n = sqrt(q_in[0] * q_in[0] + q_in[1] * q_in[1] + q_in[2] * q_in[2] + q_in[3] * q_in[3]);
+    double w = q_in[0] / n, x = q_in[1] / n, y = q_in[2] / n, z = q_in[3] / n;
+    R[0] = 1 - 2 * (y * y + z * z); R[1] = 2 * (x * y - w * z); R[2] = 2 * (x * z + w * y);
+    R[3] = 2 * (x * y + w * z); R[4] = 1 - 2 * (x * x + z * z); R[5] = 2 * (y * z - w * x);
+    R[6] = 2 * (x * z - w * y); R[7] = 2 * (y * z + w * x); R[8] = 1 - 2 * (x * x + y * y);
+}
+
+/* The orbit's tidal acceleration g(x, t) = n^2 (3 (z . x) z - x), z = (cos n t, sin n t, 0) the zenith in N, at
+ * the point r + C_NB r_B of B at both ends of a cycle, averaged (trapezoid) and put in the body frame at its start. */
+void pc_tidal_mean(const double* q0, const double* r0, const double* q1, const double* r1, const double* rB,
+                   double n, double t0, double t1, double* out) {
+    const double* qs[2] = {q0, q1};
+    const double* rs[2] = {r0, r1};
+    double ts[2] = {t0, t1}, total[3] = {0, 0, 0}, R[9], n2 = n * n, half[3];
+    int e, i;
+    for (i = 0; i < 3; i++) out[i] = 0.0;
+    if (n == 0.0) return;
+    for (e = 0; e < 2; e++) {
+        double p[3], z[3] = {cos(n * ts[e]), sin(n * ts[e]), 0.0}, zp;
+        rotation(qs[e], R);
+        for (i = 0; i < 3; i++) p[i] = rs[e][i] + (R[3 * i] * rB[0] + R[3 * i + 1] * rB[1] + R[3 * i + 2] * rB[2]);
+        zp = z[0] * p[0] + z[1] * p[1] + z[2] * p[2];
+        for (i = 0; i < 3; i++) total[i] += n2 * (3.0 * z[i] * zp - p[i]);
+    }
+    rotation(q0, R);
+    for (i = 0; i < 3; i++) half[i] = 0.5 * total[i];
+    for (i = 0; i < 3; i++) out[i] = R[i] * half[0] + R[3 + i] * half[1] + R[6 + i] * half[2];
 }

@@ -120,7 +120,7 @@ static int solve_stage(const pc_model_t* m, pc_data_t* d, const stage_t* S, doub
 
 /* Balance integrand at a stage: [power in - power dissipated, external moment about N's origin, force
  * in N] for the root's wrench u[0:6] (B components) and the input map. */
-static void balance(const pc_model_t* m, const pc_data_t* d, const double* q, const double* v, const double* u,
+static void balance(const pc_model_t* m, pc_data_t* d, const double* q, const double* v, const double* u,
                     double* g) {
     int i, j;
     double power = 0.0;
@@ -142,6 +142,14 @@ static void balance(const pc_model_t* m, const pc_data_t* d, const double* q, co
         mv3(R, u + 3, M);
         cross3(q, F, pF);
         for (i = 0; i < 3; i++) { g[1 + i] = pF[i] + M[i]; g[4 + i] = F[i]; }
+    }
+    if (d->orbit_n != 0.0) { /* the gravity gradient: its power and its force and moment about N's origin */
+        double* tau = d->tmp_nv[7];
+        double FM[6];
+        memset(tau, 0, (size_t)m->nv * sizeof(double));
+        pc_gravity_force(m, d, q, tau, FM);
+        for (i = 0; i < m->nv; i++) g[0] += tau[i] * v[i];
+        for (i = 0; i < 3; i++) { g[1 + i] += FM[3 + i]; g[4 + i] += FM[i]; }
     }
 }
 
@@ -179,6 +187,7 @@ static int one_stage(const pc_model_t* m, pc_data_t* d, int i, const double* q, 
         for (k = 0; k < nv; k++) { xbar[k] += ha * S->Kxi[j][k]; Vbar[k] += ha * S->Kv[j][k]; }
     }
     pc_inputs_at(m, d, ti, m->tab.c[i] == 1.0, S->u[i]);
+    pc_orbit_time(d, ti);
     if (g == 0.0) {
         memcpy(xi, xbar, (size_t)nv * sizeof(double));
         memcpy(V, Vbar, (size_t)nv * sizeof(double));
@@ -228,6 +237,7 @@ static int step_stages(const pc_model_t* m, pc_data_t* d, const double* q, const
         double gi[7];
         for (i = 0; i < s; i++) {
             pc_integrate(m, q, S->xi[i], d->tmp_nq[0]);
+            pc_orbit_time(d, t + m->tab.c[i] * h);
             balance(m, d, d->tmp_nq[0], S->V[i], S->u[i], gi);
             for (k = 0; k < 7; k++) quad[k] += h * m->tab.b[i] * gi[k];
         }

@@ -113,6 +113,8 @@ struct pc_data {
     double* k;            /* ns: spring stiffnesses at the current scales */
     double* dmp;          /* ns: damper coefficients at the current scales */
     double* u_extra;      /* nu: added to the excitation */
+    double orbit_n;       /* mean motion of the circular orbit (rad/s); 0: free space (pc_gravity.c) */
+    double orbit_t;       /* the time at which the forces are evaluated (set with the inputs) */
     pc_newton_t newton;
     /* statistics */
     long n_steps, n_newton, n_factor;
@@ -180,7 +182,11 @@ double pc_elastic_energy(const pc_model_t* m, const pc_data_t* d, const double* 
 double pc_spring_power(const pc_model_t* m, const pc_data_t* d, const double* v);
 void pc_spring_armature(const pc_model_t* m, const pc_data_t* d, double hg, double* arm);
 void pc_spring_dense(const pc_model_t* m, const pc_data_t* d, double hg, double* M);
-void pc_force(const pc_model_t* m, const pc_data_t* d, const double* q, const double* v, const double* u, double* tau);
+void pc_force(const pc_model_t* m, pc_data_t* d, const double* q, const double* v, const double* u, double* tau);
+/* pc_gravity.c: the gravity gradient of the instance's orbit, added to tau; FM (6, or NULL) gets the field's
+ * force and moment about N's origin (kinematics of q computed) */
+int pc_gravity_force(const pc_model_t* m, pc_data_t* d, const double* q, double* tau, double* FM);
+void pc_orbit_time(pc_data_t* d, double t);
 
 /* pc_kinematics.c */
 void pc_kinematics(const pc_model_t* m, pc_data_t* d, const double* q);

@@ -299,6 +299,7 @@ static int measure_with(const pc_model_t* m, pc_data_t* d, const double* q, cons
     int* rows;
     if (!u) return PC_ERR_MEMORY;
     pc_inputs_at(m, d, t, 0, u);
+    pc_orbit_time(d, t);
     if (!(H || Hu || Hp)) {
         err = pc_accel(m, d, q, v, u, ddq);
         if (!err) pc_measurement(m, v, ddq, z);

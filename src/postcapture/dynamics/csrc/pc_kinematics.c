@@ -245,6 +245,7 @@ int pc_sample(const pc_model_t* m, pc_data_t* d, const double* q, const double* 
     int err;
     if (!u) return PC_ERR_MEMORY;
     pc_inputs_at(m, d, t, 0, u);
+    pc_orbit_time(d, t);
     err = pc_accel(m, d, q, v, u, ddq);
     PC_ARENA_RELEASE(d, mark);
     if (err) return err;

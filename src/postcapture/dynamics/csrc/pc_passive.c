@@ -3,7 +3,8 @@
  * coordinates (tau = -a (k (a . q - rest) + d a . v) per spring): their generalized forces, their
  * partials in q and v, their partials in the stiffness and damping scales of the parameter vector, the
  * elastic energy and the dissipated power, and their contribution h g d + (h g)^2 k to the implicit
- * integrators' Newton matrix; plus the total generalized force tau = springs + B u.
+ * integrators' Newton matrix; plus the total generalized force tau = springs + B u (+ the orbit's gravity
+ * gradient, pc_gravity.c).
  */
 #include "pc_internal.h"
 
@@ -38,9 +39,10 @@ void pc_spring_force(const pc_model_t* m, const pc_data_t* d, const double* q, c
     }
 }
 
-void pc_force(const pc_model_t* m, const pc_data_t* d, const double* q, const double* v, const double* u, double* tau) {
+void pc_force(const pc_model_t* m, pc_data_t* d, const double* q, const double* v, const double* u, double* tau) {
     pc_spring_force(m, d, q, v, tau);
     pc_input_force(m, u, tau);
+    if (d->orbit_n != 0.0) pc_gravity_force(m, d, q, tau, NULL);
 }
 
 /* Cq += K, Cv += D (the springs' stiffness and damping matrices, nv x nv); either may be NULL. */

@@ -67,6 +67,9 @@ PC_API const char* pc_error_message(const pc_data_t* d);
 PC_API int pc_set_params(const pc_model_t* m, pc_data_t* d, const double* p);
 PC_API int pc_get_params(const pc_model_t* m, const pc_data_t* d, double* p);
 PC_API int pc_set_input_offset(const pc_model_t* m, pc_data_t* d, const double* u_extra);
+/* a circular orbit of mean motion n (rad/s; 0: free space) whose gravity gradient acts on every body
+ * (pc_gravity.c: N is the orbit's local-vertical local-horizontal frame at t = 0) */
+PC_API int pc_set_orbit(const pc_model_t* m, pc_data_t* d, double mean_motion);
 PC_API int pc_set_newton(pc_data_t* d, double rtol, double atol, int max_iter);
 PC_API void pc_stats(const pc_data_t* d, long* out); /* steps, Newton iterations, factorizations, arena peak */
 PC_API void pc_reset_stats(pc_data_t* d);

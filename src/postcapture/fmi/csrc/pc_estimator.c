@@ -44,6 +44,7 @@ int pc_est_create(pc_est_t* E, char* err, size_t n_err) {
     E->m = pc_model_create(PCE_IB, PCE_DB, sizeof PCE_IB / sizeof PCE_IB[0], sizeof PCE_DB / sizeof PCE_DB[0],
                            PCE_STAGES, &PCE_TAB_A[0][0], PCE_TAB_B, PCE_TAB_C, err, n_err);
     E->d = E->m ? pc_data_create(E->m) : NULL;
+    if (E->d && PCE_MEAN_MOTION != 0.0) pc_set_orbit(E->m, E->d, PCE_MEAN_MOTION); /* the filters model the orbit */
     if (!E->d) {
         if (E->m) snprintf(err, n_err, "out of memory");
         pc_model_destroy(E->m);
@@ -178,6 +179,7 @@ int pc_est_start(pc_est_t* E, double t0) {
     for (i = 0; i < 3; i++) cfg.r_accel[i] = PCE_R_ACC[i];
     cfg.sigma_gyro_walk = r[PCE_VR_SIGMA_GYRO_WALK];
     cfg.sigma_accel_walk = r[PCE_VR_SIGMA_ACCEL_WALK];
+    cfg.mean_motion = PCE_MEAN_MOTION;
     policy(&pol, PCE_NARM > 3 ? PCE_NARM : 3);
     E->aug = pc_aug_create(E->m, E->d, &cfg, x, PCE_ETA0, PCE_P0, qn, &pol, err, sizeof err);
     if (!E->aug) {

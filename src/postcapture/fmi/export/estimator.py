@@ -139,7 +139,6 @@ def estimator_variables(n_arm: int, n_u: int, param_names, *, dual: bool, q0, R_
 
 def _filters(scenario: Scenario, case: str, profile: str):
     """The native main job's filters for a case (its plan, model noise and prior), their noise and the plan."""
-    from postcapture.dynamics.build import build_system
     from postcapture.dynamics.process_model import NativeProcessModel
     from postcapture.estimation.filter import _chi2_table
     from postcapture.studies.cases import CASES, dual_config, filter_noise
@@ -147,9 +146,7 @@ def _filters(scenario: Scenario, case: str, profile: str):
     from postcapture.studies.setup import plan_run
 
     plan = with_model_noise(plan_run(scenario, profile=profile, cases=(case,)))
-    est = scenario.estimation
-    spec = CASES[case]
-    model = NativeProcessModel(build_system(scenario, spec.variant), est.model_step, est.integrator, name=case)
+    model = NativeProcessModel.for_filters(scenario, variant=CASES[case].variant, name=case)
     q_nominal = model.attitude(model.initial_state())
     aug = build_augmented(plan, model, q_nominal, name=case)
     cfg = dual_config(CASES["dual"], plan.filter_profile, plan.profile_name, plan.tuning, scenario.n_arm,
@@ -165,6 +162,7 @@ def _filters(scenario: Scenario, case: str, profile: str):
 
 def _header(plan, model, aug, cfg, R, gate, window, layout: _Layout, guid: str, dual: bool) -> str:
     """The text of ``pc_est_data.h``."""
+    from postcapture.config.schema import orbit_mean_motion
     from postcapture.dynamics.build import build_system
     from postcapture.dynamics.integrators import TABLEAUX
     from postcapture.dynamics.packing import pack
@@ -195,6 +193,7 @@ def _header(plan, model, aug, cfg, R, gate, window, layout: _Layout, guid: str, 
         f"#define PCE_GATED {int(aug.gate_probability is not None)}",
         f"#define PCE_MEKF_M {mekf_P0.shape[0]}", f"#define PCE_MEKF_REACQUIRE_BIAS {_num(np.deg2rad(1.0))}",
         f"#define PCE_NBIAS_T {bias.shape[1]}", f"#define PCE_NREAL {len(layout.variables)}",
+        f"#define PCE_MEAN_MOTION {_num(orbit_mean_motion(plan.scenario, 'filters'))}",
     ]
     lines += [f"#define PCE_VR_{block} {start}" for block, start in layout.blocks.items()]
     w = window.copy()
