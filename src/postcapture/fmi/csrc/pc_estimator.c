@@ -13,7 +13,7 @@
  * as an outlier (n_outliers). The outputs follow the native schemes' records: the attitude (the MEKF's in
  * dual), its 1-sigma, the gyro bias, the plant's rates, the parameter vector and the total target mass with
  * their 1-sigma (the discretisation's bias added as the native run adds it), the NIS per sensor of the
- * accepted updates (NaN otherwise), the recoveries and whether a filter diverged.
+ * accepted updates (-1 when none: outputs stay finite), the recoveries and whether a filter diverged.
  */
 #include <math.h>
 #include <stdio.h>
@@ -199,7 +199,7 @@ int pc_est_start(pc_est_t* E, double t0) {
     E->k = 0;
     E->have_gyro = 0;
     E->started = 1;
-    for (i = 0; i < 4; i++) r[PCE_VR_NIS + i] = NAN;
+    for (i = 0; i < 4; i++) r[PCE_VR_NIS + i] = -1.0;
     outputs(E);
     return PC_OK;
 }
@@ -266,7 +266,7 @@ int pc_est_cycle(pc_est_t* E, double t, double h) {
     diag_R(r[PCE_VR_SIGMA_GYRO], 3, Rg);
     diag_R(r[PCE_VR_SIGMA_ACCEL], 3, Ra);
     diag_R(r[PCE_VR_SIGMA_ENC], PCE_NARM, Re);
-    for (i = 0; i < 4; i++) r[PCE_VR_NIS + i] = NAN;
+    for (i = 0; i < 4; i++) r[PCE_VR_NIS + i] = -1.0; /* none (a master such as OMSimulator refuses NaN) */
     if ((err = pc_set_input_offset(E->m, E->d, u))) return err;
     if (PCE_DUAL) {
         if (fabs(gyro[0]) < INFINITY && fabs(gyro[1]) < INFINITY && fabs(gyro[2]) < INFINITY) {

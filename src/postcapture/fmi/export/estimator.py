@@ -26,8 +26,8 @@ Variables (value references in this order):
 - outputs: ``q_BN_w/x/y/z``, ``omega_BN_B_x/y/z`` (rad/s), ``attitude_sigma_x/y/z`` (rad), ``gyro_bias_x/y/z``
   (rad/s), ``target_mass`` and ``target_mass_sigma`` (kg), the plant's parameter vector ``p.<name>`` with its
   1-sigma ``p_sigma.<name>`` (the target hub's mass, first moment and inertia in T, and the factors), the NIS
-  of the accepted updates ``nis_gyro``, ``nis_star``, ``nis_accel``, ``nis_encoders`` (NaN when none),
-  ``n_missing``, ``n_outliers``, ``recoveries`` and ``diverged`` (1 once a filter diverged).
+  of the accepted updates ``nis_gyro``, ``nis_star``, ``nis_accel``, ``nis_encoders`` (-1 when none: every
+  output stays finite), ``n_missing``, ``n_outliers``, ``recoveries`` and ``diverged`` (1 once a filter diverged).
 """
 
 from __future__ import annotations
