@@ -21,6 +21,7 @@ from postcapture.core.errors import CovarianceError, DimensionError, DomainError
 from postcapture.core.units import DEG
 from postcapture.estimation.filter import FilterEvent, FilterStatus, RecoveryPolicy
 from postcapture.estimation.attitude_ekf import REACQUIRE_ATTITUDE
+from postcapture.estimation.augmented import AugmentedEKF as _Engine
 from postcapture.core.log_cholesky import _A
 from postcapture.core.triad import CALIBRATION_LABELS, OFF_DIAGONAL, axis_matrix
 
@@ -76,43 +77,11 @@ def update(x, P, innovation, H, R, *, gate_probability: float | None = None, con
 
 # ---------------------------------------------------------------- increments, triad, log-Cholesky
 def mean_rate(q0_BN, q1_BN, dt: float):
-    """The mean body rate over a cycle ``phi / dt`` and its Jacobians.
-
-    Returns
-    -------
-    z : ndarray (3,)
-        ``box_minus(q1, q0) / dt`` (rad/s).
-    H1, H0 : ndarray (3, 3)
-        Derivatives with respect to the attitude errors at the end and at the start of the cycle.
-    phi : ndarray (3,)
-        The rotation vector (rad).
-    """
     phi = rot.box_minus(q1_BN, q0_BN)
     return phi / dt, rot.right_jacobian_inv(phi) / dt, -rot.left_jacobian_inv(phi) / dt, phi
 
 
 def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
-    """The sensor point's mean specific force over a cycle, ``(Exp(phi) u1 - u0) / dt``, and its Jacobians.
-
-    Parameters
-    ----------
-    phi : ndarray (3,)
-        Rotation vector from the body frame at the start to that at the end (``box_minus(q1, q0)``).
-    v0_B, w0_B, v1_B, w1_B : ndarray (3,)
-        Linear velocity of B's origin and body rate, body components, at the start and at the end (m/s, rad/s).
-    r_B : ndarray (3,)
-        The sensor's position in B (m).
-    dt : float
-        The cycle (s).
-
-    Returns
-    -------
-    z : ndarray (3,)
-        Mean specific force (m/s^2), body frame at the start of the cycle.
-    J : dict of str to ndarray (3, 3)
-        Derivatives with respect to ``att1``, ``att0`` (right perturbations of the attitudes at the end
-        and at the start), ``v1``, ``w1``, ``v0``, ``w0``.
-    """
     E = rot.exp_matrix(phi)
     R = rot.skew(r_B)
     u0 = v0_B - R @ w0_B
@@ -142,7 +111,6 @@ def tidal_mean_B0(q0_BN, r0_N, q1_BN, r1_N, r_B, mean_motion: float, t0: float, 
 
 
 def calibration_matrix(c) -> np.ndarray:
-    """``C`` (3, 3) of a calibration vector ``c = (s (3), m (6))``."""
     M = np.zeros((3, 3))
     for v, (i, j) in zip(c[3:], OFF_DIAGONAL):
         M[i, j] = v
@@ -150,7 +118,6 @@ def calibration_matrix(c) -> np.ndarray:
 
 
 def calibration_sensitivity(w) -> np.ndarray:
-    """``d (C w) / d c`` (3, 9): how errors of the calibration vector move the triad's reading of ``w``."""
     D = np.zeros((3, 9))
     D[:, :3] = np.diag(w)
     for col, (i, j) in enumerate(OFF_DIAGONAL):
@@ -165,7 +132,6 @@ def _U(theta) -> np.ndarray:
 
 
 def pi_from_theta(theta) -> np.ndarray:
-    """Inertial parameters of log-Cholesky coordinates (always a physical body)."""
     U = _U(theta)
     return _A @ (U @ U.T).reshape(16)
 
@@ -175,7 +141,6 @@ _OFF = {4: 1, 5: 6, 6: 2, 7: 3, 8: 7, 9: 11}
 
 
 def dpi_dtheta(theta) -> np.ndarray:
-    """Jacobian ``d pi / d theta`` (10 x 10), exact: ``dJ = dU U^T + U dU^T`` and ``pi`` is linear in ``J``."""
     theta = np.asarray(theta, dtype=float)
     U = _U(theta)
     dU = np.zeros((10, 16))
@@ -196,11 +161,6 @@ def _bound(dof: int, probability: float) -> float:
 
 
 class FilterBase:
-    """Bookkeeping shared by every filter: status, events, counts, gating and the recovery trigger.
-
-    Subclasses set ``name``, ``labels``, ``P`` and implement ``_recover(kind, t)`` (inflate what a kind
-    of measurement informs) and ``_reinitialise(t)``.
-    """
 
     def _init_base(self, name: str, policy: RecoveryPolicy | None, gate_probability: float | None):
         self.name = name
@@ -216,13 +176,11 @@ class FilterBase:
 
     # ------------------------------------------------------------------ gating and recovery
     def gate(self, kind: str) -> float | None:
-        """The gate probability for the next measurement of ``kind`` (None right after a recovery)."""
         if kind in self._reacquire:
             return None
         return self.gate_probability
 
     def record(self, kind: str, t: float, nis: float, dof: int, accepted: bool) -> None:
-        """Book one update (accepted or rejected) and start a recovery when the innovations say so."""
         self._reacquire.discard(kind)
         if not accepted:
             self.counts["rejected"] += 1
@@ -264,7 +222,6 @@ class FilterBase:
         self._recover(kind, t)
 
     def diverge(self, t: float, cause: str) -> None:
-        """Record a divergence (time and cause), re-initialise, and go on."""
         self.counts["divergences"] += 1
         self.status = FilterStatus.DIVERGED
         self.events.append(FilterEvent(t, "diverged", cause))
@@ -277,11 +234,6 @@ class FilterBase:
         self._reacquire.update(("star_tracker", "gyro", "accelerations"))
 
     def check_covariance(self, t: float, where: str) -> bool:
-        """True when ``P`` is finite with a non-negative diagonal; otherwise a divergence.
-
-        (A covariance may be singular on purpose: a cloned state, a prior on a curve. The Joseph update
-        keeps it positive semi-definite; what this catches is a filter gone numerically wrong.)
-        """
         P = self.P
         ok = bool(np.all(np.isfinite(P))) and bool(np.all(np.diag(P) >= 0.0))
         if not ok:
@@ -290,7 +242,6 @@ class FilterBase:
 
     @property
     def diverged_at(self) -> float | None:
-        """Time of the first divergence (None if none)."""
         for e in self.events:
             if e.kind == "diverged":
                 return e.t
@@ -333,15 +284,6 @@ def param_jacobian(pmap, eta):
 
 # ---------------------------------------------------------------- MEKF (estimation/mekf.py)
 def error_transition(omega_B, dt: float) -> np.ndarray:
-    """Closed-form error-state transition ``Phi`` (6, 6) over ``dt`` (s).
-
-    Parameters
-    ----------
-    omega_B : array_like, shape (3,)
-        Estimated body rate ``omega_meas - b_est`` (rad/s), held constant over the step.
-    dt : float
-        Step (s).
-    """
     w = np.asarray(omega_B, dtype=float)
     a2 = float(w @ w)
     a = math.sqrt(a2)
@@ -362,17 +304,6 @@ def error_transition(omega_B, dt: float) -> np.ndarray:
 
 
 def process_noise(sigma_v: float, sigma_u: float, dt: float) -> np.ndarray:
-    """Discrete process-noise covariance (6, 6) of the attitude/bias error over ``dt`` (s).
-
-    Parameters
-    ----------
-    sigma_v : float
-        Angle random walk (rad/sqrt(s)).
-    sigma_u : float
-        Bias random walk (rad/s^1.5).
-    dt : float
-        Step (s).
-    """
     q11 = sigma_v**2 * dt + sigma_u**2 * dt**3 / 3.0
     q12 = -0.5 * sigma_u**2 * dt**2
     q22 = sigma_u**2 * dt
@@ -380,30 +311,6 @@ def process_noise(sigma_v: float, sigma_u: float, dt: float) -> np.ndarray:
 
 
 class MEKF(FilterBase):
-    """Stepper: propagate with gyro samples, correct with star-tracker quaternions (see :mod:`.filter`).
-
-    Parameters
-    ----------
-    tuning : MEKFTuning
-        Noise model and safeguards.
-    q0_BN : array_like, shape (4,)
-        Initial attitude estimate.
-    P0 : array_like, shape (6, 6) or (15, 15)
-        Initial error covariance (rad^2 and (rad/s)^2); (15, 15) also estimates the gyro calibration
-        (see the module docstring).
-    bias0_B : array_like, shape (3,), optional
-        Initial gyro-bias estimate (rad/s); zero by default.
-    t0 : float
-        Initial time (s).
-    recovery : RecoveryPolicy, optional
-        When a run of star-tracker innovations says the covariance no longer covers the error (a gyro
-        bias step, a lost attitude), the attitude and bias covariances are inflated and the bias gets
-        a one-off bump of the policy's ``gyro_bias_bump`` (rad/s, 1 deg/h by default) per axis; see
-        :mod:`.filter`.
-    reacquire_bias : float
-        1-sigma of the bias after a divergence, when the filter starts again from the next star-tracker
-        samples (rad/s); by default 1 deg/s (the attitude is lost: the bias may be anything).
-    """
 
     labels = ERROR_LABELS
 
@@ -434,7 +341,6 @@ class MEKF(FilterBase):
             raise ScenarioError([Problem("MEKF.P0", "a positive definite (6, 6) covariance", repr(P0))]) from None
 
     def predict(self, t: float, dt: float, u) -> None:
-        """Propagate from ``t`` over ``dt`` (s) with the gyro sample ``u`` (3,) (rad/s) held constant."""
         w = _vec(u, "u (gyro sample)", 3)
         if not np.all(np.isfinite(w)):
             raise ValueError("`u` must be finite; skip or hold missing gyro samples before calling predict")
@@ -461,11 +367,6 @@ class MEKF(FilterBase):
         self.check_covariance(self.t, "prediction")
 
     def update(self, z) -> UpdateResult | None:
-        """Correct with a star-tracker :class:`~postcapture.estimation.filter.Measurement` (4,).
-
-        Returns the kernel's :class:`~postcapture.core.UpdateResult`, or None when the sample is
-        not finite (skipped and counted). A sample rejected by the gate leaves the state unchanged.
-        """
         q = _vec(z.value, "star-tracker value", 4)
         if not np.all(np.isfinite(q)) or not np.linalg.norm(q) > 0:
             self.counts["measurements_missing"] += 1
@@ -489,16 +390,13 @@ class MEKF(FilterBase):
         return res
 
     def snapshot(self):
-        """Attitude, bias, calibration and covariance, to :meth:`restore`."""
         return self.q_BN.copy(), self.bias_B.copy(), self.calibration.copy(), self.P.copy(), self.t
 
     def restore(self, snap) -> None:
-        """Back to a :meth:`snapshot`."""
         q, b, c, P, self.t = snap
         self.q_BN, self.bias_B, self.calibration, self.P = q.copy(), b.copy(), c.copy(), P.copy()
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
-        """Add ``sigma^2`` to the variance of the gyro bias on one axis (``sensor`` is ``"gyro"``)."""
         self.P[3 + axis, 3 + axis] += sigma**2
 
     def _recover(self, kind: str, t: float) -> None:
@@ -521,26 +419,6 @@ def _vec(v, name: str, n: int) -> np.ndarray:
 
 # ---------------------------------------------------------------- attitude EKF
 class AttitudeEKF(FilterBase):
-    """Attitude EKF around a :class:`~postcapture.estimation.process.ProcessModel` (the stepper of :mod:`.filter`).
-
-    Parameters
-    ----------
-    model : ProcessModel
-        The filter's plant copy (its ``mass`` is set by the caller, e.g. a dual scheme, which owns the copy).
-    tuning : AttitudeEKFTuning
-    x0 : ndarray, shape (nx,)
-        Initial plant state (its attitude is the initial attitude estimate).
-    name : str
-        Filter name for logs and events.
-
-    Attributes
-    ----------
-    extra_process_noise : ndarray (3, 3) or None
-        Added to the tuning's ``Q`` at the next prediction (e.g. what the plant copy's mass uncertainty
-        does to its attitude, see :mod:`postcapture.estimation.dual`).
-    last_prediction : Prediction
-        The plant step of the last prediction (with its Jacobians).
-    """
 
     labels = ("dtheta_x", "dtheta_y", "dtheta_z")
 
@@ -557,11 +435,9 @@ class AttitudeEKF(FilterBase):
 
     @property
     def q_BN(self) -> np.ndarray:
-        """Current attitude estimate (scalar first)."""
         return self.model.attitude(self.x)
 
     def predict(self, t: float, dt: float, u=None) -> None:
-        """Propagate the plant copy and the attitude covariance from ``t`` to ``t + dt`` (``u`` unused)."""
         p = self.model.predict(self.x, t, dt, jacobians=True)
         Fa = p.F[self.att, self.att]
         Q = self.tuning.Q if self.extra_process_noise is None else self.tuning.Q + self.extra_process_noise
@@ -571,10 +447,6 @@ class AttitudeEKF(FilterBase):
         self.check_covariance(t + dt, "prediction")
 
     def update(self, z):
-        """Correct with a star-tracker :class:`~postcapture.estimation.filter.Measurement`; returns the result or None.
-
-        A non-finite sample is skipped; an innovation outside the chi-square gate is rejected.
-        """
         q_meas = np.asarray(z.value, dtype=float)
         self.last_gain = np.zeros((3, 3))
         if not np.all(np.isfinite(q_meas)):
@@ -604,17 +476,6 @@ class AttitudeEKF(FilterBase):
 
 # ---------------------------------------------------------------- mass filter
 class MassFilter(FilterBase):
-    """Scalar EKF on the sigmoid pre-image of the target mass (the stepper of :mod:`.filter`).
-
-    Parameters
-    ----------
-    tuning : MassFilterTuning
-    theta0 : float
-        Initial mass estimate (kg), inside ``(b, a)``.
-    t0, t_end : float
-        Start and end of the run (s), for the process-noise schedule.
-    name : str
-    """
 
     def __init__(self, tuning: MassFilterTuning, theta0: float, t0: float, t_end: float, name: str = "mass"):
         self._init_base(name, tuning.recovery, tuning.gate_probability)
@@ -632,43 +493,31 @@ class MassFilter(FilterBase):
 
     @property
     def x(self) -> float:
-        """The sigmoid pre-image of the mass."""
         return float(self.s[0])
 
     @property
     def theta(self) -> float:
-        """Mass estimate (kg)."""
         return float(self.map.forward(self.x))
 
     @property
     def sigma(self) -> float:
-        """One-sigma of the mass estimate (kg), through the map's slope."""
         return float(abs(self.map.derivative(self.x)) * np.sqrt(self.P[0, 0]))
 
     @property
     def accel_bias(self) -> np.ndarray:
-        """Accelerometer-bias estimate (m/s^2); zeros when not estimated."""
         return self.s[1:].copy() if self.nb else np.zeros(3)
 
     def process_noise(self, t: float) -> float:
-        """Scheduled variance added per step at time ``t``."""
         span = max(self.t_end - self.t0, 1e-12)
         a = min(max((t - self.t0) / span, 0.0), 1.0)
         return self.tuning.q_start + a * (self.tuning.q_end - self.tuning.q_start)
 
     def predict(self, t: float, dt: float = 0.0, u=None) -> None:
-        """Random-walk prediction of the mass (scheduled at ``t``) and of the bias (``dt``, ``u`` unused)."""
         self.P[0, 0] += self.process_noise(t)
         if self.nb:
             self.P[1:, 1:] += self.tuning.q_accel_bias * np.eye(self.nb)
 
     def update(self, z):
-        """Correct with a linearised accelerations :class:`~postcapture.estimation.filter.Measurement`.
-
-        ``z.value`` is the innovation ``z - z_hat`` of the plant copy's prediction (NaN = missing; the
-        filter subtracts its own bias estimate) and ``z.H`` is ``dz/dtheta`` (m,). Returns the update
-        result (with ``nis``), or None when no component was valid.
-        """
         nu = np.array(z.value, dtype=float)
         dz = np.asarray(z.H, dtype=float)
         if self.nb:
@@ -706,29 +555,6 @@ class MassFilter(FilterBase):
 
 # ---------------------------------------------------------------- augmented EKF
 class AugmentedEKF(FilterBase):
-    """See the module docstring.
-
-    Parameters
-    ----------
-    model : ProcessModel
-        The filter's own plant copy (with ``param_names``, ``params``, ``set_params`` and ``G``, ``Hp``).
-    x0 : ndarray (nx,)
-        Initial plant state, for the nominal parameters ``model.params``.
-    params : ParameterMap
-        Coordinates of the estimated groups followed by the considered ones.
-    n_consider : int
-        How many of ``params``' last coordinates are considered.
-    eta0 : ndarray
-        Initial coordinates (estimated and considered).
-    P_eta : ndarray
-        Their initial covariance.
-    S0 : ndarray (n, n_p)
-        Derivative of the initial plant state with respect to the parameters (``x0 = x0(p)``).
-    tuning : AugmentedTuning
-    q0_BN : ndarray (4,), optional
-        Initial attitude estimate (replaces ``x0``'s).
-    name : str
-    """
 
     def __init__(self, model, x0, *, params: ParameterMap, n_consider: int, eta0, P_eta, S0, tuning: AugmentedTuning,
                  q0_BN=None, name: str = "joint"):
@@ -736,64 +562,18 @@ class AugmentedEKF(FilterBase):
         self.model = model
         self.tuning = tuning
         self.params = params
-        n = model.n
-        self.n = n
-        self.att = model.tangent_attitude
-        k = params.size
-        ncal = 9 if tuning.gyro_calibration else 0
-        self.i_bg = slice(n, n + 3)
-        self.i_ba = slice(n + 3, n + 6)
-        self.i_cal = slice(n + 6, n + 6 + ncal)
-        e0 = n + 6 + ncal
-        self.i_eta = slice(e0, e0 + k)
-        self.i_est = slice(e0, e0 + k - n_consider)
-        self.i_con = slice(e0 + k - n_consider, e0 + k)
-        self.i_clone = slice(e0 + k, e0 + k + 9)
-        N = self.i_clone.stop
-        self.N = N
-        # the cloned plant coordinates: attitude, linear velocity and body rate of the chaser
-        self._cloned = np.r_[np.arange(self.att.start, self.att.stop),
-                             np.arange(model.tangent_velocity.start, model.tangent_velocity.stop),
-                             np.arange(model.tangent_rate.start, model.tangent_rate.stop)]
-        self.i_arm = np.asarray(model.tangent_arm, dtype=int)
-        self.r_accel = np.asarray(model.accelerometer_position, dtype=float)
-        labels = [f"plant[{i}]" for i in range(n)]
-        for i, axis in zip(range(self.att.start, self.att.stop), "xyz"):
-            labels[i] = f"dtheta_{axis}"
-        labels += [f"gyro_bias_{a}" for a in "xyz"] + [f"accel_bias_{a}" for a in "xyz"]
-        if ncal:
-            labels += [f"gyro_{label}" for label in CALIBRATION_LABELS]
-        labels += list(params.labels)
-        labels += [f"clone_{q}_{a}" for q in ("dtheta", "v", "omega") for a in "xyz"]
-        self.labels = tuple(labels)
-        self.eta = np.array(eta0, dtype=float)
+        _Engine._layout(self, n_consider)  # indices, labels and the initial state: set-up, not the arithmetic
+        self.x, self.eta, P, _, _ = _Engine._initial(self, x0, eta0, P_eta, S0, q0_BN)
         self._eta_init = self.eta.copy()
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
-        self.gyro_cal = np.zeros(ncal)
-        x = np.array(x0, dtype=float)
-        if q0_BN is not None:
-            d = np.zeros(n)
-            d[self.att] = rot.box_minus(np.asarray(q0_BN, dtype=float), model.attitude(x))
-            x = model.retract(x, d)
-        # the initial state follows the parameters it was computed with: move it to eta0, first order
-        p0 = params.to_model(self.eta)
-        model.set_params(p0)
-        self.x = model.retract(x, S0 @ (p0 - params.p_nominal))
-        P = np.zeros((N, N))
-        P[:n, :n] = tuning.P0_state * np.eye(n)
-        P[self.att, self.att] = tuning.P0_attitude
-        P[self.i_bg, self.i_bg] = tuning.P0_gyro_bias * np.eye(3)
-        P[self.i_ba, self.i_ba] = tuning.P0_accel_bias * np.eye(3)
-        if ncal:
-            P[self.i_cal, self.i_cal] = np.diag([tuning.P0_gyro_scale] * 3 + [tuning.P0_gyro_misalignment] * 6)
-        P[self.i_eta, self.i_eta] = P_eta
-        Sx = S0 @ params.jacobian(self.eta)  # d x0 / d eta
-        P[:n, :n] += Sx @ P_eta @ Sx.T
-        P[:n, self.i_eta] = Sx @ P_eta
-        P[self.i_eta, :n] = P[:n, self.i_eta].T
-        self.P = symmetrize(P)
+        self.gyro_cal = np.zeros(self.i_cal.stop - self.i_cal.start)
+        self.P = P
         self._P_init = self.P.copy()
+        n, N = self.n, self.N
+        self._cloned = np.r_[np.arange(self.att.start, self.att.stop),
+                             np.arange(model.tangent_velocity.start, model.tangent_velocity.stop),
+                             np.arange(model.tangent_rate.start, model.tangent_rate.stop)]
         self._clone = self._clone_values(self.x)
         self._dt = None
         nv = n // 2
@@ -812,7 +592,6 @@ class AugmentedEKF(FilterBase):
 
     # ------------------------------------------------------------------ the stepper
     def predict(self, t: float, dt: float, u=None) -> None:
-        """Advance from ``t`` to ``t + dt`` (the known inputs are the model's own schedule; ``u`` is unused)."""
         tun = self.tuning
         try:
             J_eta, pred = self._step(t, dt)
@@ -848,7 +627,6 @@ class AugmentedEKF(FilterBase):
         return J_eta, self.model.predict(self.x, t, dt, jacobians=True)
 
     def _gyro_model(self):
-        """The predicted gyro mean rate and its Jacobian (m = 3)."""
         m, N, dt = self.model, self.N, self._dt
         w_bar, H1, H0, _ = mean_rate(self._clone[0], m.attitude(self.x), dt)
         C = np.eye(3)
@@ -862,7 +640,6 @@ class AugmentedEKF(FilterBase):
         return C @ w_bar + self.gyro_bias, H
 
     def _accelerometer_model(self):
-        """The predicted mean specific force at the accelerometer and its Jacobian (m = 3)."""
         m, N = self.model, self.N
         q0, v0, w0 = self._clone
         x = self.x
@@ -884,11 +661,6 @@ class AugmentedEKF(FilterBase):
         return f + self.accel_bias, H
 
     def update(self, z: Measurement):
-        """Correct with a star-tracker, gyro, accelerometer or encoder measurement; returns the update result or None.
-
-        NaN entries of an accelerometer or encoder sample are missing and left out; a star-tracker or gyro
-        sample with any NaN is missing.
-        """
         value = np.asarray(z.value, dtype=float)
         N = self.N
         ok = np.isfinite(value)
@@ -942,33 +714,27 @@ class AugmentedEKF(FilterBase):
 
     # ------------------------------------------------------------------ faults
     def snapshot(self):
-        """The filter's estimate and covariance, to :meth:`restore` (a fault found late is re-processed)."""
         return (self.x.copy(), self.P.copy(), self.gyro_bias.copy(), self.accel_bias.copy(), self.gyro_cal.copy(),
                 self.eta.copy(), self._clone, self._dt, self.t)
 
     def restore(self, snap) -> None:
-        """Back to a :meth:`snapshot`."""
         x, P, bg, ba, cal, eta, self._clone, self._dt, self.t = snap
         self.x, self.P, self.gyro_bias, self.accel_bias = x.copy(), P.copy(), bg.copy(), ba.copy()
         self.gyro_cal, self.eta = cal.copy(), eta.copy()
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
-        """Add ``sigma^2`` to the variance of a bias: the gyro's or the accelerometer's, on one axis."""
         index = (self.i_bg if sensor == "gyro" else self.i_ba).start + axis
         self.P[index, index] += sigma**2
 
     # ------------------------------------------------------------------ outputs
     @property
     def q_BN(self) -> np.ndarray:
-        """Attitude estimate (scalar first)."""
         return self.model.attitude(self.x)
 
     def parameters(self) -> np.ndarray:
-        """The estimated parameter vector of the plant (its ``param_names``)."""
         return to_model(self.params, self.eta)
 
     def parameter_covariance(self) -> np.ndarray:
-        """Covariance of the plant's parameter vector, first order through ``dp / d eta``."""
         J = param_jacobian(self.params, self.eta)
         return J @ self.P[self.i_eta, self.i_eta] @ J.T
 
@@ -994,6 +760,5 @@ class AugmentedEKF(FilterBase):
             self._inflate(np.r_[np.arange(nv, self.n), np.arange(self.i_ba.start, self.i_ba.stop)])
 
     def _reinitialise(self, t: float) -> None:
-        """Back to the prior: the initial parameters and covariance, the biases kept, the state as it is."""
         self.eta = self._eta_init.copy()
         self.P = self._P_init.copy()

@@ -94,15 +94,6 @@ class AttitudeEKF(FilterBase):
         self._P = self._state.reshape(3, 3)
 
     @property
-    def P(self) -> np.ndarray:
-        """Attitude error covariance (3, 3) (rad^2)."""
-        return self._P.copy()
-
-    @P.setter
-    def P(self, value) -> None:
-        self._P[:] = np.asarray(value, dtype=float)
-
-    @property
     def q_BN(self) -> np.ndarray:
         """Current attitude estimate (scalar first)."""
         return self.model.attitude(self.x)

@@ -42,7 +42,7 @@ from postcapture.core import kalman
 from postcapture.core import rotations as rot
 from postcapture.core.triad import CALIBRATION_LABELS
 from postcapture.dynamics import engine as _engine
-from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy
+from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy, state_view
 from postcapture.estimation.parameters import ParameterMap
 
 __all__ = ["AugmentedTuning", "AugmentedEKF", "AugmentedSetup"]
@@ -152,11 +152,24 @@ class AugmentedEKF(FilterBase):
         self.model = model
         self.tuning = tuning
         self.params = params
+        self._layout(n_consider)
+        x, eta, P, x_start, dx_shift = self._initial(x0, eta0, P_eta, S0, q0_BN)
+        n, ncal = self.n, self.i_cal.stop - self.i_cal.start
+        noise = np.asarray(tuning.model_noise, dtype=float)
+        full = noise.ndim == 2
+        q_noise = np.ascontiguousarray(noise if full else np.broadcast_to(noise, (n // 2,)), dtype=float)
+        self.setup = AugmentedSetup(x_start, None if q0_BN is None else np.array(q0_BN, dtype=float), dx_shift, eta,
+                                    P, q_noise, full, ncal, n_consider)
+        self._create(x, eta, P, q_noise, full, ncal, n_consider)
+
+    def _layout(self, n_consider: int) -> None:
+        """Where each part of the error state sits, and its labels."""
+        model, params = self.model, self.params
         n = model.n
         self.n = n
         self.att = model.tangent_attitude
         k = params.size
-        ncal = 9 if tuning.gyro_calibration else 0
+        ncal = 9 if self.tuning.gyro_calibration else 0
         self.i_bg = slice(n, n + 3)
         self.i_ba = slice(n + 3, n + 6)
         self.i_cal = slice(n + 6, n + 6 + ncal)
@@ -165,8 +178,7 @@ class AugmentedEKF(FilterBase):
         self.i_est = slice(e0, e0 + k - n_consider)
         self.i_con = slice(e0 + k - n_consider, e0 + k)
         self.i_clone = slice(e0 + k, e0 + k + 9)
-        N = self.i_clone.stop
-        self.N = N
+        self.N = self.i_clone.stop
         self.i_arm = np.asarray(model.tangent_arm, dtype=int)
         self.r_accel = np.asarray(model.accelerometer_position, dtype=float)
         labels = [f"plant[{i}]" for i in range(n)]
@@ -178,6 +190,11 @@ class AugmentedEKF(FilterBase):
         labels += list(params.labels)
         labels += [f"clone_{q}_{a}" for q in ("dtheta", "v", "omega") for a in "xyz"]
         self.labels = tuple(labels)
+
+    def _initial(self, x0, eta0, P_eta, S0, q0_BN):
+        """The initial state (with the attitude estimate, then moved to the prior's parameters) and covariance:
+        ``(x, eta, P, x before both, the move dx_shift)``."""
+        model, params, tuning, n, N = self.model, self.params, self.tuning, self.n, self.N
         eta = np.array(eta0, dtype=float)
         x = np.array(x0, dtype=float)
         x_start = x.copy()
@@ -195,20 +212,14 @@ class AugmentedEKF(FilterBase):
         P[self.att, self.att] = tuning.P0_attitude
         P[self.i_bg, self.i_bg] = tuning.P0_gyro_bias * np.eye(3)
         P[self.i_ba, self.i_ba] = tuning.P0_accel_bias * np.eye(3)
-        if ncal:
+        if self.i_cal.stop > self.i_cal.start:
             P[self.i_cal, self.i_cal] = np.diag([tuning.P0_gyro_scale] * 3 + [tuning.P0_gyro_misalignment] * 6)
         P[self.i_eta, self.i_eta] = P_eta
         Sx = S0 @ params.jacobian(eta)  # d x0 / d eta
         P[:n, :n] += Sx @ P_eta @ Sx.T
         P[:n, self.i_eta] = Sx @ P_eta
         P[self.i_eta, :n] = P[:n, self.i_eta].T
-        P = kalman.symmetrize(P)
-        noise = np.asarray(tuning.model_noise, dtype=float)
-        full = noise.ndim == 2
-        q_noise = np.ascontiguousarray(noise if full else np.broadcast_to(noise, (n // 2,)), dtype=float)
-        self.setup = AugmentedSetup(x_start, None if q0_BN is None else np.array(q0_BN, dtype=float), dx_shift, eta,
-                                    P, q_noise, full, ncal, n_consider)
-        self._create(x, eta, P, q_noise, full, ncal, n_consider)
+        return x, eta, kalman.symmetrize(P), x_start, dx_shift
 
     def _create(self, x, eta, P, q_noise, full: bool, ncal: int, n_consider: int) -> None:
         model, tun = self.model, self.tuning
@@ -239,59 +250,11 @@ class AugmentedEKF(FilterBase):
         self._C_buf = np.zeros((self.params.p_nominal.size,) * 2)
 
     # ------------------------------------------------------------------ the state (the engine's)
-    @property
-    def x(self) -> np.ndarray:
-        """The plant copy's state."""
-        return self._x.copy()
-
-    @x.setter
-    def x(self, value) -> None:
-        self._x[:] = np.asarray(value, dtype=float)
-
-    @property
-    def P(self) -> np.ndarray:
-        """Error covariance (N, N) over :attr:`labels`."""
-        return self._P.copy()
-
-    @P.setter
-    def P(self, value) -> None:
-        self._P[:] = np.asarray(value, dtype=float)
-
-    @property
-    def eta(self) -> np.ndarray:
-        """Parameter coordinates (estimated, then considered)."""
-        return self._eta.copy()
-
-    @eta.setter
-    def eta(self, value) -> None:
-        self._eta[:] = value
-
-    @property
-    def gyro_bias(self) -> np.ndarray:
-        """Gyro-bias estimate (rad/s)."""
-        return self._bg.copy()
-
-    @gyro_bias.setter
-    def gyro_bias(self, value) -> None:
-        self._bg[:] = value
-
-    @property
-    def accel_bias(self) -> np.ndarray:
-        """Accelerometer-bias estimate (m/s^2)."""
-        return self._ba.copy()
-
-    @accel_bias.setter
-    def accel_bias(self, value) -> None:
-        self._ba[:] = value
-
-    @property
-    def gyro_cal(self) -> np.ndarray:
-        """Gyro calibration estimate (scale factors and misalignments; empty when not carried)."""
-        return self._cal.copy()
-
-    @gyro_cal.setter
-    def gyro_cal(self, value) -> None:
-        self._cal[:] = value
+    x = state_view("_x", "The plant copy's state (a copy; assigning writes the engine's).")
+    eta = state_view("_eta", "Parameter coordinates, estimated then considered.")
+    gyro_bias = state_view("_bg", "Gyro-bias estimate (rad/s).")
+    accel_bias = state_view("_ba", "Accelerometer-bias estimate (m/s^2).")
+    gyro_cal = state_view("_cal", "Gyro calibration estimate (scale factors, misalignments; empty when none).")
 
     def _measurement_model(self, kind: str):
         """The engine's predicted measurement of a kind (gyro, accelerometer, encoders) and its Jacobian (m, N)."""
@@ -363,14 +326,6 @@ class AugmentedEKF(FilterBase):
         return self._result(z.kind, z.t)
 
     # ------------------------------------------------------------------ faults
-    def snapshot(self):
-        """The filter's estimate and covariance, to :meth:`restore` (a fault found late is re-processed)."""
-        return self._state.copy()
-
-    def restore(self, snap) -> None:
-        """Back to a :meth:`snapshot`."""
-        self._state[:] = snap
-
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
         """Let a bias (the gyro's or the accelerometer's, on one axis) step now by ``sigma`` (1-sigma)."""
         index = (self.i_bg if sensor == "gyro" else self.i_ba).start + axis

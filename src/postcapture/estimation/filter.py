@@ -42,7 +42,7 @@ from postcapture.core.kalman import UpdateResult
 from postcapture.core.units import DEG_PER_HOUR
 from postcapture.dynamics import engine as _engine
 
-__all__ = ["FilterStatus", "Measurement", "FilterEvent", "RecoveryPolicy", "FilterBase", "KINDS"]
+__all__ = ["FilterStatus", "Measurement", "FilterEvent", "RecoveryPolicy", "FilterBase", "KINDS", "state_view"]
 
 logger = logging.getLogger(__name__)
 
@@ -114,6 +114,18 @@ class RecoveryPolicy:
     gyro_bias_bump: float = DEG_PER_HOUR
     max_recoveries: int = 6
     recovery_window: float = 60.0
+
+
+def state_view(attr: str, doc: str) -> property:
+    """A property over one of a filter's views of the engine's state: it reads a copy and writes in place."""
+
+    def get(self) -> np.ndarray:
+        return getattr(self, attr).copy()
+
+    def put(self, value) -> None:
+        getattr(self, attr)[...] = np.asarray(value, dtype=float)
+
+    return property(get, put, doc=doc)
 
 
 KINDS = ("star_tracker", "gyro", "accelerometer", "encoders", "accelerations")
@@ -251,6 +263,16 @@ class FilterBase:
             logger.info("%s: %s sample at t = %.6g s rejected (NIS %.3g)", self.name, kind, t, r.nis)
         return UpdateResult(None, None, nu, S, K, float(r.nis), bool(r.accepted),
                             None if r.threshold < 0 else float(r.threshold))
+
+    P = state_view("_P", "Error covariance over :attr:`labels` (a copy; assigning writes the engine's).")
+
+    def snapshot(self) -> np.ndarray:
+        """The filter's state (estimate and covariance, not its failure model's), to :meth:`restore`."""
+        return self._state.copy()
+
+    def restore(self, snap) -> None:
+        """Back to a :meth:`snapshot` (a fault found late is re-processed from there)."""
+        self._state[:] = snap
 
     @property
     def diverged_at(self) -> float | None:

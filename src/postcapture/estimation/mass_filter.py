@@ -119,15 +119,6 @@ class MassFilter(FilterBase):
         """The state: the sigmoid pre-image of the mass, then the accelerometer bias (when estimated)."""
         return self._s.copy()
 
-    @property
-    def P(self) -> np.ndarray:
-        """Covariance of :attr:`s`."""
-        return self._P.copy()
-
-    @P.setter
-    def P(self, value) -> None:
-        self._P[:] = np.asarray(value, dtype=float)
-
     def _map(self):
         theta, slope = ctypes.c_double(), ctypes.c_double()
         m = self.map

@@ -49,7 +49,7 @@ from postcapture.core.errors import (
 from postcapture.core.timegrid import default_tolerance, merge_times
 from postcapture.core.units import DEG
 from postcapture.estimation.attitude_ekf import REACQUIRE_ATTITUDE
-from postcapture.estimation.filter import FilterBase, Measurement
+from postcapture.estimation.filter import FilterBase, Measurement, state_view
 from postcapture.estimation.history import EstimateHistory, SampledSignal, StepFlag
 from postcapture.core.triad import CALIBRATION_LABELS
 from postcapture.dynamics import engine as _engine
@@ -222,28 +222,8 @@ class MEKF(FilterBase):
     def q_BN(self, value) -> None:
         self._q[:] = rot.normalize(_vec(value, "q_BN", 4))
 
-    @property
-    def bias_B(self) -> np.ndarray:
-        """Gyro-bias estimate (rad/s)."""
-        return self._b.copy()
-
-    @bias_B.setter
-    def bias_B(self, value) -> None:
-        self._b[:] = _vec(value, "bias_B", 3)
-
-    @property
-    def calibration(self) -> np.ndarray:
-        """Gyro scale-factor and misalignment estimates (9; none with 6 states)."""
-        return self._c.copy()
-
-    @property
-    def P(self) -> np.ndarray:
-        """Error covariance (m, m)."""
-        return self._P.copy()
-
-    @P.setter
-    def P(self, value) -> None:
-        self._P[:] = np.asarray(value, dtype=float)
+    bias_B = state_view("_b", "Gyro-bias estimate (rad/s).")
+    calibration = state_view("_c", "Gyro scale-factor and misalignment estimates (9; none with 6 states).")
 
     @property
     def t(self) -> float:
@@ -273,14 +253,6 @@ class MEKF(FilterBase):
         self._eng.mekf_update(self._handle, float(z.t), q, np.ascontiguousarray(z.R, dtype=float),
                               ctypes.byref(self._res))
         return self._result(z.kind, z.t)
-
-    def snapshot(self):
-        """Attitude, bias, calibration, time and covariance, to :meth:`restore`."""
-        return self._state.copy()
-
-    def restore(self, snap) -> None:
-        """Back to a :meth:`snapshot`."""
-        self._state[:] = snap
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
         """Let the gyro bias on one axis (``sensor`` is ``"gyro"``) step now by ``sigma`` (1-sigma)."""

@@ -239,12 +239,11 @@ static int aug_update(pc_est_t* E, int kind, double t1, const double* value, con
     return err;
 }
 
-int pc_est_cycle(pc_est_t* E, double t, double h) {
-    double star[4], gyro[3], accel[3], enc[PCE_NARM > 0 ? PCE_NARM : 1], u[PCE_NU];
-    double Rg[9], Ra[9], Re[PCE_NARM * PCE_NARM > 0 ? PCE_NARM * PCE_NARM : 1], t1 = t + h;
-    double* r = E->r;
-    int i, err;
-    pc_update_t res;
+/* the cycle's inputs as the filters read them (a star-tracker quaternion off unit norm refused); the commanded
+ * inputs into the plant copy */
+static int read_inputs(pc_est_t* E, double* star, double* gyro, double* accel, double* enc) {
+    double u[PCE_NU], *r = E->r;
+    int i;
     sample(E, PCE_VR_STAR, 4, PCE_VR_STAR_VALID, star);
     if (fabs(star[0]) < INFINITY) { /* a quaternion far from unit norm is not a star tracker's */
         double nq = sqrt(star[0] * star[0] + star[1] * star[1] + star[2] * star[2] + star[3] * star[3]);
@@ -263,37 +262,57 @@ int pc_est_cycle(pc_est_t* E, double t, double h) {
             return PC_ERR_ARG;
         }
     }
+    return pc_set_input_offset(E->m, E->d, u);
+}
+
+/* the dual's attitude filter: the MEKF on the last valid gyro sample, then the star tracker */
+static int mekf_cycle(pc_est_t* E, double t, double h, const double* gyro, const double* star) {
+    pc_update_t res;
+    int err;
+    if (fabs(gyro[0]) < INFINITY && fabs(gyro[1]) < INFINITY && fabs(gyro[2]) < INFINITY) {
+        memcpy(E->last_gyro, gyro, sizeof E->last_gyro);
+        E->have_gyro = 1;
+    }
+    if (E->have_gyro && (err = pc_mekf_predict(E->mekf, t, h, E->last_gyro))) return err;
+    if ((err = pc_mekf_update(E->mekf, t + h, star, E->r + PCE_VR_R_STAR, &res))) return err;
+    if (!res.missing && res.accepted) E->r[PCE_VR_NIS + 1] = res.nis;
+    return PC_OK;
+}
+
+/* the augmented EKF's cycle: predict, then gyro, star tracker (joint), accelerometer, encoders */
+static int aug_cycle(pc_est_t* E, double t, double h, const double* star, const double* gyro, const double* accel,
+                     const double* enc) {
+    double Rg[9], Ra[9], Re[PCE_NARM * PCE_NARM > 0 ? PCE_NARM * PCE_NARM : 1], t1 = t + h, *r = E->r;
+    int err;
     diag_R(r[PCE_VR_SIGMA_GYRO], 3, Rg);
     diag_R(r[PCE_VR_SIGMA_ACCEL], 3, Ra);
     diag_R(r[PCE_VR_SIGMA_ENC], PCE_NARM, Re);
-    for (i = 0; i < 4; i++) r[PCE_VR_NIS + i] = -1.0; /* none (a master such as OMSimulator refuses NaN) */
-    if ((err = pc_set_input_offset(E->m, E->d, u))) return err;
-    if (PCE_DUAL) {
-        if (fabs(gyro[0]) < INFINITY && fabs(gyro[1]) < INFINITY && fabs(gyro[2]) < INFINITY) {
-            memcpy(E->last_gyro, gyro, sizeof gyro);
-            E->have_gyro = 1;
-        }
-        if (E->have_gyro && (err = pc_mekf_predict(E->mekf, t, h, E->last_gyro))) goto mekf_failed;
-        if ((err = pc_mekf_update(E->mekf, t1, star, r + PCE_VR_R_STAR, &res))) goto mekf_failed;
-        if (!res.missing && res.accepted) r[PCE_VR_NIS + 1] = res.nis;
+    if ((err = pc_aug_predict(E->aug, t, h))) return err;
+    if ((err = aug_update(E, PC_KIND_GYRO, t1, gyro, Rg, 0))) return err;
+    if (!PCE_DUAL && (err = aug_update(E, PC_KIND_STAR, t1, star, r + PCE_VR_R_STAR, 1))) return err;
+    if ((err = aug_update(E, PC_KIND_ACCEL, t1, accel, Ra, 2))) return err;
+    return aug_update(E, PC_KIND_ENCODERS, t1, enc, Re, 3);
+}
+
+int pc_est_cycle(pc_est_t* E, double t, double h) {
+    double star[4], gyro[3], accel[3], enc[PCE_NARM > 0 ? PCE_NARM : 1];
+    int i, err;
+    for (i = 0; i < 4; i++) E->r[PCE_VR_NIS + i] = -1.0; /* none (a master such as OMSimulator refuses NaN) */
+    if ((err = read_inputs(E, star, gyro, accel, enc))) return err;
+    if (PCE_DUAL && (err = mekf_cycle(E, t, h, gyro, star))) {
+        snprintf(E->message, sizeof E->message, "the MEKF: %s", pc_filter_message(E->mekf));
+        return err;
     }
-    if ((err = pc_aug_predict(E->aug, t, h))) goto aug_failed;
-    if ((err = aug_update(E, PC_KIND_GYRO, t1, gyro, Rg, 0))) goto aug_failed;
-    if (!PCE_DUAL && (err = aug_update(E, PC_KIND_STAR, t1, star, r + PCE_VR_R_STAR, 1))) goto aug_failed;
-    if ((err = aug_update(E, PC_KIND_ACCEL, t1, accel, Ra, 2))) goto aug_failed;
-    if ((err = aug_update(E, PC_KIND_ENCODERS, t1, enc, Re, 3))) goto aug_failed;
+    if ((err = aug_cycle(E, t, h, star, gyro, accel, enc))) {
+        snprintf(E->message, sizeof E->message, "the augmented EKF: %s", pc_filter_message(E->aug));
+        return err;
+    }
     drain(E->aug);
     drain(E->mekf);
-    E->t = t1;
+    E->t = t + h;
     E->k++;
     outputs(E);
     return PC_OK;
-aug_failed:
-    snprintf(E->message, sizeof E->message, "the augmented EKF: %s", pc_filter_message(E->aug));
-    return err;
-mekf_failed:
-    snprintf(E->message, sizeof E->message, "the MEKF: %s", pc_filter_message(E->mekf));
-    return err;
 }
 
 /* ------------------------------------------------------------------------------------ state */
