@@ -22,6 +22,7 @@ from postcapture.core.units import DEG
 from postcapture.estimation.filter import FilterEvent, FilterStatus, RecoveryPolicy
 from postcapture.estimation.attitude_ekf import REACQUIRE_ATTITUDE
 from postcapture.estimation.augmented import AugmentedEKF as _Engine
+from postcapture.estimation.filter import FilterBase as _EngineBase
 from postcapture.core.log_cholesky import _A
 from postcapture.core.triad import CALIBRATION_LABELS, OFF_DIAGONAL, axis_matrix
 
@@ -163,12 +164,7 @@ def _bound(dof: int, probability: float) -> float:
 class FilterBase:
 
     def _init_base(self, name: str, policy: RecoveryPolicy | None, gate_probability: float | None):
-        self.name = name
-        self.status = FilterStatus.RUNNING
-        self.events: list[FilterEvent] = []
-        self.policy = policy or RecoveryPolicy()
-        self.gate_probability = gate_probability
-        self.counts = {"updates": 0, "rejected": 0, "measurements_missing": 0, "recoveries": 0, "divergences": 0}
+        _EngineBase._init_base(self, name, policy, gate_probability)  # name, status, events, policy, counts
         self._rejected_in_row: dict[str, int] = {}
         self._nis: dict[str, deque] = {}
         self._recoveries: deque = deque()
@@ -239,13 +235,6 @@ class FilterBase:
         if not ok:
             self.diverge(t, f"covariance not finite or with a negative variance after the {where}")
         return ok
-
-    @property
-    def diverged_at(self) -> float | None:
-        for e in self.events:
-            if e.kind == "diverged":
-                return e.t
-        return None
 
     # ------------------------------------------------------------------ hooks
     def _recover(self, kind: str, t: float) -> None:  # pragma: no cover - every filter overrides
