@@ -60,8 +60,12 @@ def test_results_hold_target_estimates_and_sensor_records(files):
         assert np.allclose(inertia[:3, 0], ds["inertia_true"].values[:3], rtol=0.02)
         assert np.isnan(ds["com_est"].isel(case=label_index(ds, "case", "ekf_flexible")).values).all()
         for name, dim in (("star_tracker", "quaternion"), ("gyro", "axis"), ("accelerometer", "axis"),
-                          ("joint_accelerations", "arm_joint")):
+                          ("joint_encoders", "arm_joint")):
             assert ds[name].dims == (dim, "time") and ds[f"{name}_valid"].dims == ("time",)
+        assert ds["joint_encoders"].attrs["units"] == "rad"
+        # the encoders read the link angle to a count of 2 pi / 2^20 and their noise
+        assert np.allclose(ds["joint_encoders"].values[:, 1:], files["run_result"].result.truth["arm_q"][:, 1:],
+                           atol=1e-4)
         assert ds["gyro"].attrs["units"] == "rad/s" and ds["accelerometer"].attrs["units"] == "m/s^2"
         # the recorded gyro is what the filters read: close to the truth's body rate
         assert np.allclose(ds["gyro"].values[:, 1:], files["run_result"].result.truth["omega_BN_B"][:, 1:], atol=1e-3)

@@ -76,7 +76,8 @@ class Supervisor:
     bias_floor: dict = field(default_factory=lambda: {"gyro": DEG_PER_HOUR})  # smallest re-opening, by sensor
 
     def __post_init__(self):
-        self.detectors = {name: ChangeDetector(len(sig), self.policy.drift, self.policy.threshold)
+        self.detectors = {name: ChangeDetector(len(sig), self.policy.encoder_drift if name == "encoders"
+                                               else self.policy.drift, self.policy.threshold)
                           for name, sig in self.sigmas.items()}
         self.validity = ValidityMonitor(self.policy, self.dt)
         self._snaps: deque = deque(maxlen=max(int(self.policy.lookback / self.dt / 5) + 1, 2))

@@ -138,7 +138,9 @@ def results_table(summary: dict, *, width: int = WIDTH) -> str:
     mass_cells = {}
     for n, m in cases.items():
         three = None if m["mass_sigma_kg"] is None else 3 * m["mass_sigma_kg"]
-        mass_cells[n] = [_fmt(m["mass_error_kg"], "+.2f", "-"), _fmt(three, ".3g", "-"),
+        # a diverged filter's sigma says nothing (a re-initialised reference filter's fell to 1e-4 kg)
+        three_cell = _fmt(three, ".3g", "-") if m.get("success", True) else "diverged"
+        mass_cells[n] = [_fmt(m["mass_error_kg"], "+.2f", "-"), three_cell,
                          _fmt(m["settle_1pct_s"], ".1f"), _fmt(m["settle_01pct_s"], ".1f"), _fmt(m["wall_s"], ".1f", "-")]
     lines.append("Target mass at the end of the run")
     lines += _rows(names, mass_header, mass_cells, width)

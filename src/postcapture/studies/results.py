@@ -34,8 +34,9 @@ CAMPAIGN_FILES = ("campaign.nc", "summary.json", "table.txt", "report.md", "camp
 _SENSORS = (  # attribute of the sensor suite, variable, label dimension, long name
     ("star", "star_tracker", "quaternion", "star-tracker attitude measurement q_BN, scalar first"),
     ("gyro", "gyro", "axis", "gyro: mean body rate over each sample interval, B components"),
-    ("accel", "accelerometer", "axis", "accelerometer: specific force at the accelerometer, B components"),
-    ("joints", "joint_accelerations", "arm_joint", "arm joint accelerations"),
+    ("accel", "accelerometer", "axis", "accelerometer: mean specific force at the accelerometer over each sample "
+                                       "interval, components in B at the interval's start"),
+    ("joints", "joint_encoders", "arm_joint", "arm joint encoders: link-side joint angle, quantised"),
 )
 
 
