@@ -12,6 +12,12 @@ mean rate differences two attitudes whose variances are 1e8 times its own, so th
 and the target's products of inertia follow. Measured on 20 s of the joint filter, reference profile: one
 ulp added to the Python filter's initial covariance moves I_xz by 2.5e-9 relative, h_y by 3e-9; the engine
 against Python 7.5e-8 and 7e-9; mass 8e-11, attitude 9e-12 (``RTOL_ILL`` below covers those).
+
+The attitude and bias sigmas are compared against the largest of their history (the initial 0.02 rad), so a
+late, small sigma is held to a tighter relative bound than its variance is. On 300 s of the joint filter,
+reference profile, the yaw sigma at 221 s (2.2e-4 rad) moves by 3.6e-11 (1.8e-9 of the scale) when one ulp
+is added to each diagonal entry of the Python filter's own initial covariance; the engine against Python
+differs there by 3.0e-11 (1.5e-9), the covariance itself by 3.4e-11 of its scale. ``RTOL_SIGMA`` covers that.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ from postcapture.config import load_scenario  # noqa: E402
 
 RTOL = 1e-9
 RTOL_ILL = 1e-6  # parameters other than the mass, their sigmas, NIS (see the module docstring)
+RTOL_SIGMA = 4e-9  # attitude and bias sigmas against their initial value (see the module docstring)
 
 
 def _close(a, b, what: str, rtol: float = RTOL) -> None:
@@ -106,7 +113,7 @@ def _run_scheme(plan, scheme: str, sensors, q0, reference: bool):
 def _compare(got, want, what: str) -> None:
     _close(got.attitude.q_BN, want.attitude.q_BN, f"{what}: attitude")
     sig = lambda P: np.sqrt(np.abs(np.einsum("iik->ik", P)))  # noqa: E731
-    _close(sig(got.attitude.P), sig(want.attitude.P), f"{what}: attitude and bias sigmas")
+    _close(sig(got.attitude.P), sig(want.attitude.P), f"{what}: attitude and bias sigmas", RTOL_SIGMA)
     _close(got.attitude.P, want.attitude.P, f"{what}: attitude covariance")
     _close(got.mass, want.mass, f"{what}: mass")
     _close(got.mass_sigma, want.mass_sigma, f"{what}: mass sigma")
