@@ -240,6 +240,8 @@ def cmd_fmu_export(args) -> int:
     from postcapture.fmi import export_fmu
 
     scenario = load_scenario(args.scenario)
+    if getattr(args, "estimator", None):
+        return _export_estimator(args, scenario)
     with _display(args, "fmu export") as shown:
         report = export_fmu(scenario, args.output, variant=args.variant, fmi_version=args.fmi,
                             directional_derivatives=not args.no_directional, step_jacobian=not args.no_step_jacobian,
@@ -257,6 +259,24 @@ def cmd_fmu_export(args) -> int:
         _echo(f"exported {info['fmu']} in {info['wall_s']:.1f} s: FMI {info['fmi_version']} co-simulation, "
               f"{info['variant']} model, {info['n_states']} states, {info['n_variables']} variables")
         _echo(f"its variable mapping: {info['mapping']}")
+    return 0
+
+
+def _export_estimator(args, scenario) -> int:
+    from postcapture.studies.estimator_fmu import export_estimator_fmu
+
+    if args.fmi != 2:
+        raise ScenarioError([Problem("--fmi", "2 with --estimator (FMI 3.0 is not implemented yet)", str(args.fmi))])
+    with _display(args, "fmu export --estimator") as shown:
+        report = export_estimator_fmu(scenario, args.output, case=args.estimator, profile=args.profile,
+                                      progress=lambda msg, *rest: shown.phase(msg))
+    info = {"fmu": str(report.path), "fmi_version": "2.0", "case": report.case, "profile": report.profile,
+            "period_s": report.period, "n_variables": len(report.variables)}
+    if args.json:
+        _print_json(info)
+    else:
+        _echo(f"exported {info['fmu']}: FMI 2.0 co-simulation, the {report.case} estimator ({report.profile} "
+              f"profile), one doStep per {report.period:g} s filter cycle, {info['n_variables']} variables")
     return 0
 
 
@@ -315,7 +335,8 @@ def cmd_bench(args) -> int:
     from postcapture.studies.bench import run_benchmark
 
     with _display(args, "bench") as shown:
-        result = run_benchmark(args.scenario, duration=args.duration, progress=shown.phase)
+        result = run_benchmark(args.scenario, duration=args.duration, progress=shown.phase,
+                               campaign=getattr(args, "campaign", False))
     if args.json:
         _print_json(result)
         return 0

@@ -276,6 +276,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--panel-segments", type=_segments, default=None, metavar="N")
     c.add_argument("--no-directional", action="store_true", help="without directional derivatives")
     c.add_argument("--no-step-jacobian", action="store_true", help="without the exact step-Jacobian outputs")
+    c.add_argument("--estimator", default=None, choices=("joint", "dual"), metavar="CASE",
+                   help="instead of the plant: the estimator of a recommended case (joint or dual), one doStep "
+                        "per filter cycle")
+    c.add_argument("--profile", default="reference", choices=("reference", "realistic"),
+                   help="with --estimator: the sensor profile whose tuning it carries")
     c.add_argument("-o", "--output", required=True, metavar="FILE.fmu")
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=commands.cmd_fmu_export)
@@ -290,6 +295,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=_positive_float, default=300.0, metavar="S", help="simulated seconds per case")
     p.add_argument("--accuracy", action="store_true",
                    help="instead: integrator accuracy against RK4 at 0.25 ms (40 s forced and free; minutes)")
+    p.add_argument("--campaign", action="store_true",
+                   help="also time a 50-run dispersed campaign of dual and joint (key campaign50_s; minutes)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=commands.cmd_bench)
     return parser

@@ -21,14 +21,17 @@ the centre of mass, and the triangle inequalities of its principal moments all f
 maps any ``theta = (alpha, d1, d2, d3, s12, s23, s13, t1, t2, t3)`` in R^10 to a physical body and back
 (Rucker and Wensing, "Smooth parameterization of rigid-body inertia", IEEE RA-L 7(2), 2022). The mass
 is ``exp(2 alpha)``, so a 1-sigma of ``alpha`` is half the relative 1-sigma of the mass.
+
+The map ``theta -> pi`` and its exact derivative run in the compiled engine with the filters
+(``dynamics/csrc/pc_parameters.c``; :func:`postcapture.estimation.parameters.pi_from_theta` and
+:func:`~postcapture.estimation.parameters.dpi_dtheta` call it); the inverse, used once to start a filter, is here.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["THETA_NAMES", "pseudo_inertia", "parameters_from_pseudo_inertia", "pi_from_theta", "theta_from_pi",
-           "dpi_dtheta"]
+__all__ = ["THETA_NAMES", "pseudo_inertia", "parameters_from_pseudo_inertia", "theta_from_pi"]
 
 THETA_NAMES = ("alpha", "d1", "d2", "d3", "s12", "s23", "s13", "t1", "t2", "t3")
 _SYM = ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))
@@ -69,19 +72,6 @@ def parameters_from_pseudo_inertia(J) -> np.ndarray:
     return _A @ np.asarray(J, dtype=float).reshape(16)
 
 
-def _U(theta) -> np.ndarray:
-    a, d1, d2, d3, s12, s23, s13, t1, t2, t3 = np.asarray(theta, dtype=float)
-    U = np.array([[np.exp(d1), s12, s13, t1], [0.0, np.exp(d2), s23, t2], [0.0, 0.0, np.exp(d3), t3],
-                  [0.0, 0.0, 0.0, 1.0]])
-    return np.exp(a) * U
-
-
-def pi_from_theta(theta) -> np.ndarray:
-    """Inertial parameters of log-Cholesky coordinates (always a physical body)."""
-    U = _U(theta)
-    return parameters_from_pseudo_inertia(U @ U.T)
-
-
 def theta_from_pi(pi) -> np.ndarray:
     """Log-Cholesky coordinates of physical inertial parameters.
 
@@ -102,23 +92,3 @@ def theta_from_pi(pi) -> np.ndarray:
     V = U / U[3, 3]
     return np.array([a, np.log(V[0, 0]), np.log(V[1, 1]), np.log(V[2, 2]), V[0, 1], V[1, 2], V[0, 2], V[0, 3], V[1, 3],
                      V[2, 3]])
-
-
-# where each off-diagonal coordinate of theta sits in U (flat index of the 4 x 4)
-_OFF = {4: 1, 5: 6, 6: 2, 7: 3, 8: 7, 9: 11}
-
-
-def dpi_dtheta(theta) -> np.ndarray:
-    """Jacobian ``d pi / d theta`` (10 x 10), exact: ``dJ = dU U^T + U dU^T`` and ``pi`` is linear in ``J``."""
-    theta = np.asarray(theta, dtype=float)
-    U = _U(theta)
-    dU = np.zeros((10, 16))
-    dU[0] = U.reshape(16)  # d U / d alpha = U
-    for k in (1, 2, 3):
-        dU[k, 5 * (k - 1)] = U[k - 1, k - 1]
-    e = np.exp(theta[0])
-    for k, flat in _OFF.items():
-        dU[k, flat] = e
-    G = dU.reshape(10, 4, 4) @ U.T  # dU U^T for every coordinate
-    dJ = G + G.transpose(0, 2, 1)
-    return (dJ.reshape(10, 16) @ _A.T).T

@@ -3,14 +3,16 @@
 A triad reads a body-frame vector ``w`` as ``C w`` with ``C = I + diag(s) + M``: ``s`` (3,) the axes'
 relative scale-factor errors (1e-6 is 1 ppm) and ``M`` (3, 3, zero diagonal) each axis's sensitivity
 to the two others (rad, small angles). As a vector, ``c = (s, m)`` with ``m`` the six off-diagonal terms
-of ``M`` in row-major order (``xy, xz, yx, yz, zx, zy``).
+of ``M`` in row-major order (``xy, xz, yx, yz, zx, zy``). The sensors apply it here (:func:`axis_matrix`); the
+filters' model of it (``C`` of a calibration vector and its sensitivity) is the compiled engine's, reached
+through :mod:`postcapture.estimation.increments`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["OFF_DIAGONAL", "CALIBRATION_LABELS", "axis_matrix", "calibration_matrix", "calibration_sensitivity"]
+__all__ = ["OFF_DIAGONAL", "CALIBRATION_LABELS", "axis_matrix"]
 
 OFF_DIAGONAL = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
 CALIBRATION_LABELS = ("scale_x", "scale_y", "scale_z") + tuple(f"misalignment_{'xyz'[i]}{'xyz'[j]}"
@@ -20,20 +22,3 @@ CALIBRATION_LABELS = ("scale_x", "scale_y", "scale_z") + tuple(f"misalignment_{'
 def axis_matrix(scale_factor, misalignment) -> np.ndarray:
     """``I + diag(scale_factor) + misalignment`` (3, 3) from the scale factors (3,) and the matrix ``M``."""
     return np.eye(3) + np.diag(np.asarray(scale_factor, dtype=float)) + np.asarray(misalignment, dtype=float)
-
-
-def calibration_matrix(c) -> np.ndarray:
-    """``C`` (3, 3) of a calibration vector ``c = (s (3), m (6))``."""
-    M = np.zeros((3, 3))
-    for v, (i, j) in zip(c[3:], OFF_DIAGONAL):
-        M[i, j] = v
-    return axis_matrix(c[:3], M)
-
-
-def calibration_sensitivity(w) -> np.ndarray:
-    """``d (C w) / d c`` (3, 9): how errors of the calibration vector move the triad's reading of ``w``."""
-    D = np.zeros((3, 9))
-    D[:, :3] = np.diag(w)
-    for col, (i, j) in enumerate(OFF_DIAGONAL):
-        D[i, 3 + col] = w[j]
-    return D

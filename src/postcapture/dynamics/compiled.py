@@ -37,7 +37,7 @@ from pathlib import Path
 
 from postcapture.core.errors import CompileError
 
-__all__ = ["SOURCES", "HEADERS", "CFLAGS", "source_files", "cache_dir", "compiler", "load_library",
+__all__ = ["SOURCES", "FILTER_SOURCES", "HEADERS", "CFLAGS", "source_files", "cache_dir", "compiler", "load_library",
            "compile_seconds", "prune_cache", "PRUNE_DAYS", "KEEP_BUILDS"]
 
 logger = logging.getLogger(__name__)
@@ -45,7 +45,10 @@ logger = logging.getLogger(__name__)
 SOURCES = ("pc_model.c", "pc_validate.c", "pc_data.c", "pc_inputs.c", "pc_passive.c", "pc_kinematics.c", "pc_aba.c",
            "pc_rnea.c", "pc_rnea_derivatives.c", "pc_crba.c", "pc_derivatives.c", "pc_liegroup.c", "pc_linalg.c",
            "pc_integrator.c", "pc_jacobian.c", "pc_gravity.c")
-HEADERS = ("pc_plant.h", "pc_internal.h", "pc_spatial.h")
+# the filters' arithmetic (pc_filter.h): compiled into the same library, and into the estimator FMUs
+FILTER_SOURCES = ("pc_recovery.c", "pc_kalman.c", "pc_so3.c", "pc_increments.c", "pc_parameters.c", "pc_mekf.c",
+                  "pc_attitude_ekf.c", "pc_mass_filter.c", "pc_augmented.c")
+HEADERS = ("pc_plant.h", "pc_internal.h", "pc_spatial.h", "pc_filter.h", "pc_filter_internal.h")
 # The FMU export compiles the same sources with the same flags, so both run the same arithmetic.
 CFLAGS = ("-O3", "-std=c99", "-fPIC", "-ffp-contract=off", "-fvisibility=hidden")
 PRUNE_DAYS = 30.0  # a build not loaded for this long is removed
@@ -58,7 +61,7 @@ _COMPILE_S = 0.0
 def source_files() -> dict[str, str]:
     """The core's C sources and headers by file name."""
     root = resources.files("postcapture.dynamics") / "csrc"
-    return {name: (root / name).read_text() for name in SOURCES + HEADERS}
+    return {name: (root / name).read_text() for name in SOURCES + FILTER_SOURCES + HEADERS}
 
 
 def cache_dir() -> Path:
@@ -122,7 +125,7 @@ def _build(cc: str, files: dict[str, str], target: Path, build_id: str = "unvers
             (src / name).write_text(text)
         out = src / "core.so"
         cmd = [cc, *CFLAGS, f"-DPC_BUILD_ID=\"{build_id}\"", "-shared", "-o", str(out),
-               *(str(src / n) for n in SOURCES), "-lm"]
+               *(str(src / n) for n in SOURCES + FILTER_SOURCES), "-lm"]
         logger.info("compiling the plant core: %s", " ".join(cmd))
         proc = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL)
         if proc.returncode != 0:

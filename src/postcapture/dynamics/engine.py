@@ -23,7 +23,8 @@ from postcapture.core.errors import DomainError, SimulationError
 from postcapture.dynamics.compiled import load_library
 
 __all__ = ["EngineError", "NewtonError", "NonFiniteStateError", "SingularMatrixError", "EngineArgumentError",
-           "ArenaError", "ModelError", "Engine", "engine", "EngineModel", "layout_version"]
+           "ArenaError", "ModelError", "Engine", "engine", "EngineModel", "layout_version", "UpdateStruct",
+           "PolicyStruct", "AugConfigStruct", "MAX_MEAS", "EVENT_TEXT", "EVENT_DOUBLES"]
 
 
 class EngineError(SimulationError):
@@ -117,6 +118,88 @@ _STATUS_CALLS = {
 }
 
 
+# ------------------------------------------------------------------ the filters (pc_filter.h)
+MAX_MEAS, EVENT_TEXT, EVENT_DOUBLES = 32, 200, 12
+
+
+class UpdateStruct(ctypes.Structure):
+    """``pc_update_t``: one update's outcome."""
+
+    _fields_ = [("m", ctypes.c_int), ("accepted", ctypes.c_int), ("missing", ctypes.c_int), ("nis", ctypes.c_double),
+                ("threshold", ctypes.c_double), ("innovation", ctypes.c_double * MAX_MEAS),
+                ("S", ctypes.c_double * (MAX_MEAS * MAX_MEAS))]
+
+
+class PolicyStruct(ctypes.Structure):
+    """``pc_policy_t``: recovery policy and gate tables (the arrays must outlive the filter's creation)."""
+
+    _fields_ = [("reject_limit", ctypes.c_int), ("nis_window", ctypes.c_int), ("max_recoveries", ctypes.c_int),
+                ("gated", ctypes.c_int), ("n_gate", ctypes.c_int), ("n_window_bound", ctypes.c_int),
+                ("inflation", ctypes.c_double), ("gyro_bias_bump", ctypes.c_double),
+                ("recovery_window", ctypes.c_double), ("gate", ctypes.POINTER(ctypes.c_double)),
+                ("window_bound", ctypes.POINTER(ctypes.c_double))]
+
+
+class AugConfigStruct(ctypes.Structure):
+    """``pc_aug_config_t``: the augmented EKF's layout and noise (the arrays must outlive its creation)."""
+
+    _fields_ = [("n_arm", ctypes.c_int), ("n_cal", ctypes.c_int), ("n_consider", ctypes.c_int),
+                ("full_noise", ctypes.c_int), ("n_spec", ctypes.c_int), ("arm_v", ctypes.POINTER(ctypes.c_int)),
+                ("param_spec", ctypes.POINTER(ctypes.c_int)), ("p_nominal", ctypes.POINTER(ctypes.c_double)),
+                ("step", ctypes.c_double), ("r_accel", ctypes.c_double * 3), ("sigma_gyro_walk", ctypes.c_double),
+                ("sigma_accel_walk", ctypes.c_double), ("mean_motion", ctypes.c_double)]
+
+
+_U = ctypes.POINTER(UpdateStruct)
+_POL = ctypes.POINTER(PolicyStruct)
+_B = np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS")
+_OB = _optional(_B)
+
+# filter calls whose failure the filter's own message explains (argument 0 is the filter)
+_FILTER_CALLS = {
+    "pc_mekf_predict": [_H, _DBL, _DBL, _D],
+    "pc_mekf_update": [_H, _DBL, _D, _D, _U],
+    "pc_atekf_predict": [_H, _DBL, _D, _OD],
+    "pc_atekf_update": [_H, _DBL, _D, _D, _D, _D, _D, _U],
+    "pc_massf_predict": [_H, _DBL],
+    "pc_massf_update": [_H, _DBL, _INT, _D, _D, _D, _U],
+    "pc_aug_predict": [_H, _DBL, _DBL],
+    "pc_aug_update": [_H, _INT, _DBL, _D, _D, _U],
+    "pc_aug_sizes": [_H, _I],
+    "pc_aug_measure": [_H, _INT, _D, _D],
+    "pc_aug_parameters": [_H, _D, _OD],
+}
+# calls that return nothing or a value
+_FILTER_PLAIN = {
+    "pc_mekf_create": (_H, [_INT, _D, _OD, _D, _DBL, _DBL, _DBL, _DBL, _DBL, _POL]),
+    "pc_atekf_create": (_H, [_D, _D, _DBL, _POL]),
+    "pc_massf_create": (_H, [_INT, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _DBL, _POL]),
+    "pc_aug_create": (_H, [_H, _H, ctypes.POINTER(AugConfigStruct), _D, _D, _D, _D, _POL, ctypes.c_char_p, _SZ]),
+    "pc_filter_status": (_INT, [_H, _L]),
+    "pc_filter_events": (_INT, [_H, _D, ctypes.c_char_p, _INT]),
+    "pc_filter_message": (ctypes.c_char_p, [_H]),
+    "pc_filter_state": (ctypes.POINTER(ctypes.c_double), [_H, ctypes.POINTER(_SZ)]),
+    "pc_filter_destroy": (None, [_H]),
+    "pc_aug_reopen": (None, [_H, _INT, _DBL]),
+    "pc_aug_apply": (None, [_H, _D]),
+    "pc_mekf_transition": (None, [_D, _DBL, _D]),
+    "pc_mekf_noise": (None, [_DBL, _DBL, _DBL, _D]),
+    "pc_kf_workspace": (_SZ, [_INT, _INT]),
+    "pc_massf_noise": (_DBL, [_H, _DBL]),
+    "pc_kf_predict": (None, [_INT, _D, _D, _D, _D]),
+    "pc_kf_update": (_INT, [_INT, _INT, _D, _D, _D, _D, _OB, _DBL, _OD, _OD, _U, _D]),
+    "pc_mean_rate": (None, [_D, _D, _DBL, _D, _OD, _OD, _OD]),
+    "pc_mean_specific_force": (None, [_D, _D, _D, _D, _D, _D, _DBL, _D, _OD]),
+    "pc_triad_matrix": (None, [_D, _D]),
+    "pc_tidal_mean": (None, [_D, _D, _D, _D, _D, _DBL, _DBL, _DBL, _D]),
+    "pc_triad_sensitivity": (None, [_D, _D]),
+    "pc_log_cholesky": (None, [_D, _OD, _OD]),
+    "pc_parammap_size": (_INT, [_I, _INT, _INT]),
+    "pc_parammap_apply": (None, [_I, _D, _INT, _D, _OD, _OD]),
+    "pc_sigmoid": (None, [_DBL, _DBL, _DBL, _DBL, ctypes.POINTER(_DBL), ctypes.POINTER(_DBL)]),
+}
+
+
 class _StatusCall:
     """One status-returning core function: declared once; a non-zero status raises its error type."""
 
@@ -155,10 +238,20 @@ class Engine:
             setattr(self, name[3:], fn)
         for name, (argtypes, data_arg) in _STATUS_CALLS.items():
             setattr(self, name[3:], _StatusCall(lib, name, argtypes, data_arg, self.message))
+        for name, (restype, argtypes) in _FILTER_PLAIN.items():
+            fn = getattr(lib, name)
+            fn.restype, fn.argtypes = restype, argtypes
+            setattr(self, name[3:], fn)
+        for name, argtypes in _FILTER_CALLS.items():
+            setattr(self, name[3:], _StatusCall(lib, name, argtypes, 0, self.filter_message))
 
     def message(self, data) -> str:
         """The error text a data holds (its last failure)."""
         return self.error_message(data).decode(errors="replace") if data else ""
+
+    def filter_message(self, f) -> str:
+        """The error text a filter holds (its last failure)."""
+        return self.lib.pc_filter_message(f).decode(errors="replace") if f else ""
 
 
 _ENGINE: Engine | None = None

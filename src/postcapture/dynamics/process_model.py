@@ -83,6 +83,11 @@ class NativeProcessModel:
         return NativeProcessModel(self._description, self.step, self._integrator_name, self.name,
                                   plant=self.plant.copy())  # the instance's orbit too (pc_data_copy)
 
+    def engine_handles(self):
+        """This model's ``(pc_model_t*, pc_data_t*)`` in the compiled engine, for a filter that runs over its
+        instance there (:class:`~postcapture.estimation.augmented.AugmentedEKF`; the filter keeps the model)."""
+        return self.plant.model.handle, self.plant._d
+
     # ------------------------------------------------------------------ parameters
     @property
     def system(self) -> System:

@@ -4,18 +4,18 @@ The filter's state is a full copy of the plant state ``x`` (carried by the proce
 current target-mass estimate), but its error state is the attitude only: ``dtheta`` (3, body frame,
 right perturbation). Its transition is the attitude block of the model's exact step Jacobian; a star
 tracker quaternion corrects it through the innovation ``box_minus(q_meas, q_est)`` with ``H = I``.
-The reference tuning is ``R = 0.01^2 I3``, ``Q = 0.0007^2 I3`` per step, ``P0 = 0.02^2 I3``.
+The reference tuning is ``R = 0.01^2 I3``, ``Q = 0.0007^2 I3`` per step, ``P0 = 0.02^2 I3``. The
+covariance arithmetic, the update and the recovery run in the compiled engine (``pc_attitude_ekf.c``); the
+plant copy (any process model) steps and takes the correction here.
 """
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from postcapture.core import kalman
-from postcapture.core import rotations as rot
-from postcapture.core.errors import CovarianceError
 from postcapture.core.prediction import Prediction
 from postcapture.estimation.filter import FilterBase, RecoveryPolicy
 
@@ -84,11 +84,14 @@ class AttitudeEKF(FilterBase):
         self.model = model
         self.tuning = tuning
         self.x = np.array(x0, dtype=float)
-        self.P = np.array(tuning.P0, dtype=float)
         self.att = model.tangent_attitude
         self.last_gain = np.zeros((3, 3))
         self.extra_process_noise = None
         self.last_prediction: Prediction | None = None
+        self._attach(self._eng.atekf_create(np.ascontiguousarray(tuning.P0, dtype=float),
+                                            np.ascontiguousarray(tuning.Q, dtype=float), REACQUIRE_ATTITUDE,
+                                            ctypes.byref(self._policy(3))))
+        self._P = self._state.reshape(3, 3)
 
     @property
     def q_BN(self) -> np.ndarray:
@@ -98,41 +101,27 @@ class AttitudeEKF(FilterBase):
     def predict(self, t: float, dt: float, u=None) -> None:
         """Propagate the plant copy and the attitude covariance from ``t`` to ``t + dt`` (``u`` unused)."""
         p = self.model.predict(self.x, t, dt, jacobians=True)
-        Fa = p.F[self.att, self.att]
-        Q = self.tuning.Q if self.extra_process_noise is None else self.tuning.Q + self.extra_process_noise
-        self.P = kalman.symmetrize(Fa @ self.P @ Fa.T + Q)
+        Fa = np.ascontiguousarray(p.F[self.att, self.att])
+        extra = None if self.extra_process_noise is None else np.ascontiguousarray(self.extra_process_noise,
+                                                                                      dtype=float)
+        self._eng.atekf_predict(self._handle, float(t + dt), Fa, extra)
         self.x = p.x
         self.last_prediction = p
-        self.check_covariance(t + dt, "prediction")
+        self._sync()
 
     def update(self, z):
         """Correct with a star-tracker :class:`~postcapture.estimation.filter.Measurement`; returns the result or None.
 
         A non-finite sample is skipped; an innovation outside the chi-square gate is rejected.
         """
-        q_meas = np.asarray(z.value, dtype=float)
-        self.last_gain = np.zeros((3, 3))
-        if not np.all(np.isfinite(q_meas)):
-            self.counts["measurements_missing"] += 1
-            return None
-        innovation = rot.box_minus(q_meas, self.q_BN)
-        try:
-            res = kalman.update(np.zeros(3), self.P, innovation, np.eye(3), z.R, gate_probability=self.gate(z.kind))
-        except CovarianceError as exc:
-            self.diverge(z.t, str(exc))
-            return None
-        if res.accepted:
+        dtheta, K = np.zeros(3), np.zeros((3, 3))
+        self._eng.atekf_update(self._handle, float(z.t), np.ascontiguousarray(z.value, dtype=float),
+                               np.ascontiguousarray(self.q_BN), np.ascontiguousarray(z.R, dtype=float), dtheta, K,
+                               ctypes.byref(self._res))
+        res = self._result(z.kind, z.t, K)
+        self.last_gain = K
+        if res is not None and res.accepted:
             dx = np.zeros(self.model.n)
-            dx[self.att] = res.x
+            dx[self.att] = dtheta
             self.x = self.model.retract(self.x, dx)
-            self.P = res.P
-            self.last_gain = res.K
-        self.record(z.kind, z.t, res.nis, 3, res.accepted)
         return res
-
-    def _recover(self, kind: str, t: float) -> None:
-        self.P = self.P * self.policy.inflation
-
-    def _reinitialise(self, t: float) -> None:
-        # the attitude is lost: the next star-tracker sample (let through without a gate) sets it
-        self.P = np.array(self.tuning.P0, dtype=float) + REACQUIRE_ATTITUDE**2 * np.eye(3)

@@ -24,23 +24,28 @@ Jacobians.
 Measurements: the star tracker (``H = I`` on the attitude), the gyro's mean rate (reads its bias and
 calibration), the accelerometer's mean specific force at its position in B (reads its bias) and the arm's
 encoders (``H = I`` on the joint angles).
+
+The filter runs in the compiled engine (``pc_augmented.c``) over its plant copy's own instance there
+(``pc_model_t`` shared, ``pc_data_t`` its own): prediction, measurement models, update, recovery. This
+class sets it up (the labels, the initial state and covariance from the prior) and exposes its state; the
+plant copy must be a native process model (one with ``engine_handles``).
 """
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from postcapture.core import kalman
 from postcapture.core import rotations as rot
-from postcapture.core.errors import CovarianceError, DomainError, SimulationError
-from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy
-from postcapture.core.triad import CALIBRATION_LABELS, calibration_matrix, calibration_sensitivity
-from postcapture.estimation.increments import mean_rate, mean_specific_force, tidal_mean_B0
+from postcapture.core.triad import CALIBRATION_LABELS
+from postcapture.dynamics import engine as _engine
+from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy, state_view
 from postcapture.estimation.parameters import ParameterMap
 
-__all__ = ["AugmentedTuning", "AugmentedEKF"]
+__all__ = ["AugmentedTuning", "AugmentedEKF", "AugmentedSetup"]
 
 
 @dataclass(frozen=True)
@@ -93,13 +98,30 @@ class AugmentedTuning:
 
 
 
+@dataclass(frozen=True)
+class AugmentedSetup:
+    """What the engine's filter was created from (an estimator FMU embeds it): the plant state before the
+    initial attitude estimate ``q0_BN`` is applied, then ``dx_shift`` (tangent) that moves it to the prior's
+    parameters; the prior's coordinates and covariance; the model noise per velocity (or full)."""
+
+    x0: np.ndarray
+    q0_BN: np.ndarray | None
+    dx_shift: np.ndarray
+    eta0: np.ndarray
+    P0: np.ndarray
+    q_noise: np.ndarray
+    full_noise: bool
+    n_cal: int
+    n_consider: int
+
+
 class AugmentedEKF(FilterBase):
     """See the module docstring.
 
     Parameters
     ----------
     model : ProcessModel
-        The filter's own plant copy (with ``param_names``, ``params``, ``set_params`` and ``G``, ``Hp``).
+        The filter's own plant copy (with ``param_names``, ``params``, ``set_params``, ``engine_handles``).
     x0 : ndarray (nx,)
         Initial plant state, for the nominal parameters ``model.params``.
     params : ParameterMap
@@ -118,17 +140,36 @@ class AugmentedEKF(FilterBase):
     name : str
     """
 
+    _S_PREFIX = True
+    _KIND = {"star_tracker": 0, "gyro": 1, "accelerometer": 2, "encoders": 3}
+
     def __init__(self, model, x0, *, params: ParameterMap, n_consider: int, eta0, P_eta, S0, tuning: AugmentedTuning,
                  q0_BN=None, name: str = "joint"):
         self._init_base(name, tuning.recovery, tuning.gate_probability)
+        if not hasattr(model, "engine_handles"):
+            raise TypeError(f"{name}: the augmented EKF runs in the compiled engine over a native plant copy; "
+                            f"{type(model).__name__} has no engine instance")
         self.model = model
         self.tuning = tuning
         self.params = params
+        self._layout(n_consider)
+        x, eta, P, x_start, dx_shift = self._initial(x0, eta0, P_eta, S0, q0_BN)
+        n, ncal = self.n, self.i_cal.stop - self.i_cal.start
+        noise = np.asarray(tuning.model_noise, dtype=float)
+        full = noise.ndim == 2
+        q_noise = np.ascontiguousarray(noise if full else np.broadcast_to(noise, (n // 2,)), dtype=float)
+        self.setup = AugmentedSetup(x_start, None if q0_BN is None else np.array(q0_BN, dtype=float), dx_shift, eta,
+                                    P, q_noise, full, ncal, n_consider)
+        self._create(x, eta, P, q_noise, full, ncal, n_consider)
+
+    def _layout(self, n_consider: int) -> None:
+        """Where each part of the error state sits, and its labels."""
+        model, params = self.model, self.params
         n = model.n
         self.n = n
         self.att = model.tangent_attitude
         k = params.size
-        ncal = 9 if tuning.gyro_calibration else 0
+        ncal = 9 if self.tuning.gyro_calibration else 0
         self.i_bg = slice(n, n + 3)
         self.i_ba = slice(n + 3, n + 6)
         self.i_cal = slice(n + 6, n + 6 + ncal)
@@ -137,12 +178,7 @@ class AugmentedEKF(FilterBase):
         self.i_est = slice(e0, e0 + k - n_consider)
         self.i_con = slice(e0 + k - n_consider, e0 + k)
         self.i_clone = slice(e0 + k, e0 + k + 9)
-        N = self.i_clone.stop
-        self.N = N
-        # the cloned plant coordinates: attitude, linear velocity and body rate of the chaser
-        self._cloned = np.r_[np.arange(self.att.start, self.att.stop),
-                             np.arange(model.tangent_velocity.start, model.tangent_velocity.stop),
-                             np.arange(model.tangent_rate.start, model.tangent_rate.stop)]
+        self.N = self.i_clone.stop
         self.i_arm = np.asarray(model.tangent_arm, dtype=int)
         self.r_accel = np.asarray(model.accelerometer_position, dtype=float)
         labels = [f"plant[{i}]" for i in range(n)]
@@ -154,122 +190,121 @@ class AugmentedEKF(FilterBase):
         labels += list(params.labels)
         labels += [f"clone_{q}_{a}" for q in ("dtheta", "v", "omega") for a in "xyz"]
         self.labels = tuple(labels)
-        self.eta = np.array(eta0, dtype=float)
-        self._eta_init = self.eta.copy()
-        self.gyro_bias = np.zeros(3)
-        self.accel_bias = np.zeros(3)
-        self.gyro_cal = np.zeros(ncal)
+
+    def _initial(self, x0, eta0, P_eta, S0, q0_BN):
+        """The initial state (with the attitude estimate, then moved to the prior's parameters) and covariance:
+        ``(x, eta, P, x before both, the move dx_shift)``."""
+        model, params, tuning, n, N = self.model, self.params, self.tuning, self.n, self.N
+        eta = np.array(eta0, dtype=float)
         x = np.array(x0, dtype=float)
+        x_start = x.copy()
         if q0_BN is not None:
             d = np.zeros(n)
             d[self.att] = rot.box_minus(np.asarray(q0_BN, dtype=float), model.attitude(x))
             x = model.retract(x, d)
         # the initial state follows the parameters it was computed with: move it to eta0, first order
-        p0 = params.to_model(self.eta)
+        p0 = params.to_model(eta)
         model.set_params(p0)
-        self.x = model.retract(x, S0 @ (p0 - params.p_nominal))
+        dx_shift = S0 @ (p0 - params.p_nominal)
+        x = model.retract(x, dx_shift)
         P = np.zeros((N, N))
         P[:n, :n] = tuning.P0_state * np.eye(n)
         P[self.att, self.att] = tuning.P0_attitude
         P[self.i_bg, self.i_bg] = tuning.P0_gyro_bias * np.eye(3)
         P[self.i_ba, self.i_ba] = tuning.P0_accel_bias * np.eye(3)
-        if ncal:
+        if self.i_cal.stop > self.i_cal.start:
             P[self.i_cal, self.i_cal] = np.diag([tuning.P0_gyro_scale] * 3 + [tuning.P0_gyro_misalignment] * 6)
         P[self.i_eta, self.i_eta] = P_eta
-        Sx = S0 @ params.jacobian(self.eta)  # d x0 / d eta
+        Sx = S0 @ params.jacobian(eta)  # d x0 / d eta
         P[:n, :n] += Sx @ P_eta @ Sx.T
         P[:n, self.i_eta] = Sx @ P_eta
         P[self.i_eta, :n] = P[:n, self.i_eta].T
-        self.P = kalman.symmetrize(P)
-        self._P_init = self.P.copy()
-        self._clone = self._clone_values(self.x)
-        self._dt = None
-        nv = n // 2
-        Q = np.zeros((N, N))
-        noise = np.asarray(tuning.model_noise, dtype=float)
-        if noise.ndim == 2:
-            Q[:n, :n] = noise
-        else:
-            Q[range(nv, n), range(nv, n)] = np.broadcast_to(noise, (nv,))
-        self._Q_rate = Q
-        self.t = 0.0
+        return x, eta, kalman.symmetrize(P), x_start, dx_shift
+
+    def _create(self, x, eta, P, q_noise, full: bool, ncal: int, n_consider: int) -> None:
+        model, tun = self.model, self.tuning
+        arm_v = np.ascontiguousarray(self.i_arm, dtype=np.int32)
+        spec = self.params.spec
+        p_nom = np.ascontiguousarray(self.params.p_nominal, dtype=float)
+        ip, dp = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
+        cfg = _engine.AugConfigStruct(arm_v.size, ncal, n_consider, int(full), spec.size, arm_v.ctypes.data_as(ip),
+                                      spec.ctypes.data_as(ip), p_nom.ctypes.data_as(dp), float(model.step),
+                                      (ctypes.c_double * 3)(*self.r_accel), tun.sigma_gyro_bias_walk,
+                                      tun.sigma_accel_bias_walk, float(tun.mean_motion))
+        m_handle, d_handle = model.engine_handles()
+        err = ctypes.create_string_buffer(512)
+        handle = self._eng.aug_create(m_handle, d_handle, ctypes.byref(cfg), np.ascontiguousarray(x),
+                                      np.ascontiguousarray(eta), np.ascontiguousarray(P), q_noise,
+                                      ctypes.byref(self._policy(max(3, arm_v.size))), err, len(err))
+        if not handle:
+            raise ValueError(f"{self.name}: {err.value.decode(errors='replace')}")
+        self._attach(handle)
+        st, nx, N, k = self._state, x.size, self.N, eta.size
+        self._x, self._bg, self._ba = st[:nx], st[nx:nx + 3], st[nx + 3:nx + 6]
+        o = nx + 6
+        self._cal, self._eta = st[o:o + ncal], st[o + ncal:o + ncal + k]
+        o += ncal + k
+        self._cq, self._cv, self._cw = st[o:o + 4], st[o + 4:o + 7], st[o + 7:o + 10]
+        self._dt_t = st[o + 10:o + 12]
+        self._P = st[o + 12:].reshape(N, N)
+        self._C_buf = np.zeros((self.params.p_nominal.size,) * 2)
+
+    # ------------------------------------------------------------------ the state (the engine's)
+    x = state_view("_x", "The plant copy's state (a copy; assigning writes the engine's).")
+    eta = state_view("_eta", "Parameter coordinates, estimated then considered.")
+    gyro_bias = state_view("_bg", "Gyro-bias estimate (rad/s).")
+    accel_bias = state_view("_ba", "Accelerometer-bias estimate (m/s^2).")
+    gyro_cal = state_view("_cal", "Gyro calibration estimate (scale factors, misalignments; empty when none).")
+
+    def _measurement_model(self, kind: str):
+        """The engine's predicted measurement of a kind (gyro, accelerometer, encoders) and its Jacobian (m, N)."""
+        m = self.i_arm.size if kind == "encoders" else 3
+        z, H = np.zeros(m), np.zeros((m, self.N))
+        self._eng.aug_measure(self._handle, self._KIND[kind], z, H)
+        return z, H
+
+    def _apply(self, dx) -> None:
+        """``x <- x (+) dx`` over the whole error state (the engine's correction)."""
+        self._eng.aug_apply(self._handle, np.ascontiguousarray(dx, dtype=float))
+
+    @property
+    def _clone(self):
+        """The chaser's attitude, velocity and rate at the cycle's start (the cloned values)."""
+        return self._cq.copy(), self._cv.copy(), self._cw.copy()
+
+    @_clone.setter
+    def _clone(self, values) -> None:
+        q, v, w = values
+        self._cq[:], self._cv[:], self._cw[:] = q, v, w
 
     def _clone_values(self, x):
         m = self.model
         return m.attitude(x), m.chaser_velocity(x), m.body_rate(x)
 
+    @property
+    def _dt(self) -> float | None:
+        return float(self._dt_t[0]) or None
+
+    @property
+    def t(self) -> float:
+        """Time of the estimate (s)."""
+        return float(self._dt_t[1])
+
+    @t.setter
+    def t(self, value: float) -> None:
+        self._dt_t[1] = float(value)
+
     # ------------------------------------------------------------------ the stepper
     def predict(self, t: float, dt: float, u=None) -> None:
-        """Advance from ``t`` to ``t + dt`` (the known inputs are the model's own schedule; ``u`` is unused)."""
-        tun = self.tuning
+        """Advance from ``t`` to ``t + dt`` (the known inputs are the model's own schedule; ``u`` is unused).
+
+        A plant copy that cannot take the step is a divergence (re-initialised, tried again); a second
+        failure raises the engine's :class:`~postcapture.core.errors.SimulationError`.
+        """
         try:
-            J_eta, pred = self._step(t, dt)
-        except (SimulationError, DomainError) as exc:  # the plant copy cannot take this step with these values
-            self.diverge(t, f"the plant copy failed: {exc}")
-            J_eta, pred = self._step(t, dt)
-        # clone the chaser's attitude, velocity and rate at t (values and errors) before the step
-        self._clone = self._clone_values(self.x)
-        P = self.P
-        c, a = self.i_clone, self._cloned
-        P[c, :] = P[a, :]
-        P[:, c] = P[:, a]
-        n = self.n
-        Phi_x = pred.F
-        Phi_eta = pred.G @ J_eta
-        # P <- Phi P Phi^T with Phi = I except the plant rows [F, G J]
-        top = Phi_x @ P[:n, :] + Phi_eta @ P[self.i_eta, :]
-        P[:n, :] = top
-        left = P[:, :n] @ Phi_x.T + P[:, self.i_eta] @ Phi_eta.T
-        P[:, :n] = left
-        Q = self._Q_rate.copy()
-        Q[self.i_bg, self.i_bg] = tun.sigma_gyro_bias_walk**2 * dt * np.eye(3)
-        Q[self.i_ba, self.i_ba] = tun.sigma_accel_bias_walk**2 * dt * np.eye(3)
-        self.P = kalman.symmetrize(P + Q)
-        self.x = pred.x
-        self._dt = dt
-        self.t = t + dt
-        self.check_covariance(self.t, "prediction")
-
-    def _step(self, t, dt):
-        J_eta = self.params.jacobian(self.eta)
-        self.model.set_params(self.params.to_model(self.eta))
-        return J_eta, self.model.predict(self.x, t, dt, jacobians=True)
-
-    def _gyro_model(self):
-        """The predicted gyro mean rate and its Jacobian (m = 3)."""
-        m, N, dt = self.model, self.N, self._dt
-        w_bar, H1, H0, _ = mean_rate(self._clone[0], m.attitude(self.x), dt)
-        C = np.eye(3)
-        H = np.zeros((3, N))
-        if self.gyro_cal.size:
-            C = calibration_matrix(self.gyro_cal)
-            H[:, self.i_cal] = calibration_sensitivity(w_bar)
-        H[:, self.att] = C @ H1
-        H[:, self.i_clone.start:self.i_clone.start + 3] = C @ H0
-        H[:, self.i_bg] = np.eye(3)
-        return C @ w_bar + self.gyro_bias, H
-
-    def _accelerometer_model(self):
-        """The predicted mean specific force at the accelerometer and its Jacobian (m = 3)."""
-        m, N = self.model, self.N
-        q0, v0, w0 = self._clone
-        x = self.x
-        phi = rot.box_minus(m.attitude(x), q0)
-        f, J = mean_specific_force(phi, v0, w0, m.chaser_velocity(x), m.body_rate(x), self.r_accel, self._dt)
-        if self.tuning.mean_motion:  # the reading is the acceleration less the tidal field (the cycle's end position)
-            r1 = m.chaser_position(x)
-            f = f - tidal_mean_B0(q0, r1, m.attitude(x), r1, self.r_accel, self.tuning.mean_motion,
-                                  self.t - self._dt, self.t)
-        H = np.zeros((3, N))
-        H[:, self.att] = J["att1"]
-        H[:, m.tangent_velocity] = J["v1"]
-        H[:, m.tangent_rate] = J["w1"]
-        c = self.i_clone.start
-        H[:, c:c + 3] = J["att0"]
-        H[:, c + 3:c + 6] = J["v0"]
-        H[:, c + 6:c + 9] = J["w0"]
-        H[:, self.i_ba] = np.eye(3)
-        return f + self.accel_bias, H
+            self._eng.aug_predict(self._handle, float(t), float(dt))
+        finally:
+            self._sync()
 
     def update(self, z: Measurement):
         """Correct with a star-tracker, gyro, accelerometer or encoder measurement; returns the update result or None.
@@ -277,111 +312,39 @@ class AugmentedEKF(FilterBase):
         NaN entries of an accelerometer or encoder sample are missing and left out; a star-tracker or gyro
         sample with any NaN is missing.
         """
-        value = np.asarray(z.value, dtype=float)
-        N = self.N
-        ok = np.isfinite(value)
-        if z.kind == "star_tracker":
-            if not ok.all():
-                self.counts["measurements_missing"] += 1
-                return None
-            nu = rot.box_minus(value, self.model.attitude(self.x))
-            H = np.zeros((3, N))
-            H[:, self.att] = np.eye(3)
-            R = z.R
-        elif z.kind in ("gyro", "accelerometer", "encoders"):
-            if (z.kind == "gyro" and not ok.all()) or not ok.any():
-                self.counts["measurements_missing"] += 1
-                return None
-            if z.kind == "gyro":
-                z_hat, H = self._gyro_model()
-            elif z.kind == "accelerometer":
-                z_hat, H = self._accelerometer_model()
-            else:
-                z_hat = self.model.arm_angles(self.x)
-                H = np.zeros((z_hat.size, N))
-                H[np.arange(z_hat.size), self.i_arm] = 1.0
-            nu = (value - z_hat)[ok]
-            H = H[ok]
-            R = np.asarray(z.R, dtype=float)[np.ix_(ok, ok)]
-        else:
+        kind = self._KIND.get(z.kind)
+        if kind is None:
             raise ValueError("measurement kind: expected star_tracker, gyro, accelerometer or encoders, "
                              f"found {z.kind!r}")
-        try:
-            res = kalman.update(np.zeros(N), self.P, nu, H, R, gate_probability=self.gate(z.kind), consider=self.i_con)
-        except CovarianceError as exc:
-            self.diverge(z.t, f"{z.kind} update: {exc}")
-            return None
-        if res.accepted:
-            self._apply(res.x)
-            self.P = res.P
-        self.record(z.kind, z.t, res.nis, nu.size, res.accepted)  # after the update: a recovery inflates the new P
-        return res
-
-    def _apply(self, dx) -> None:
-        n = self.n
-        self.x = self.model.retract(self.x, dx[:n])
-        self.gyro_bias = self.gyro_bias + dx[self.i_bg]
-        self.accel_bias = self.accel_bias + dx[self.i_ba]
-        self.gyro_cal = self.gyro_cal + dx[self.i_cal]
-        self.eta = self.eta + dx[self.i_eta]
-        c = self.i_clone.start
-        q0, v0, w0 = self._clone
-        self._clone = (rot.box_plus(q0, dx[c:c + 3]), v0 + dx[c + 3:c + 6], w0 + dx[c + 6:c + 9])
+        size = 4 if kind == 0 else (self.i_arm.size if kind == 3 else 3)
+        value = np.ascontiguousarray(z.value, dtype=float)
+        R = np.ascontiguousarray(z.R, dtype=float)
+        if value.shape != (size,) or R.shape != ((3, 3) if kind == 0 else (size, size)):
+            raise ValueError(f"{z.kind}: expected a value of {size} components and its covariance, found shapes "
+                             f"{value.shape} and {R.shape}")
+        self._eng.aug_update(self._handle, kind, float(z.t), value, R, ctypes.byref(self._res))
+        return self._result(z.kind, z.t)
 
     # ------------------------------------------------------------------ faults
-    def snapshot(self):
-        """The filter's estimate and covariance, to :meth:`restore` (a fault found late is re-processed)."""
-        return (self.x.copy(), self.P.copy(), self.gyro_bias.copy(), self.accel_bias.copy(), self.gyro_cal.copy(),
-                self.eta.copy(), self._clone, self._dt, self.t)
-
-    def restore(self, snap) -> None:
-        """Back to a :meth:`snapshot`."""
-        x, P, bg, ba, cal, eta, self._clone, self._dt, self.t = snap
-        self.x, self.P, self.gyro_bias, self.accel_bias = x.copy(), P.copy(), bg.copy(), ba.copy()
-        self.gyro_cal, self.eta = cal.copy(), eta.copy()
-
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
         """Let a bias (the gyro's or the accelerometer's, on one axis) step now by ``sigma`` (1-sigma)."""
         index = (self.i_bg if sensor == "gyro" else self.i_ba).start + axis
-        self.P[index, index] += sigma**2
+        self._eng.aug_reopen(self._handle, index, float(sigma))
 
     # ------------------------------------------------------------------ outputs
     @property
     def q_BN(self) -> np.ndarray:
         """Attitude estimate (scalar first)."""
-        return self.model.attitude(self.x)
+        return self.model.attitude(self._x)
 
     def parameters(self) -> np.ndarray:
         """The estimated parameter vector of the plant (its ``param_names``)."""
-        return self.params.to_model(self.eta)
+        p = np.zeros(self.params.p_nominal.size)
+        self._eng.aug_parameters(self._handle, p, None)
+        return p
 
     def parameter_covariance(self) -> np.ndarray:
         """Covariance of the plant's parameter vector, first order through ``dp / d eta``."""
-        J = self.params.jacobian(self.eta)
-        return J @ self.P[self.i_eta, self.i_eta] @ J.T
-
-    # ------------------------------------------------------------------ recovery
-    def _inflate(self, index) -> None:
-        d = np.ones(self.N)
-        d[index] = np.sqrt(self.policy.inflation)
-        self.P = self.P * np.outer(d, d)
-
-    def _recover(self, kind: str, t: float) -> None:
-        nv = self.n // 2
-        bias_g = np.arange(self.i_bg.start, self.i_bg.stop)
-        if kind == "star_tracker":
-            self._inflate(np.r_[np.arange(self.att.start, self.att.stop), bias_g])
-            self.P[self.i_bg, self.i_bg] += self.policy.gyro_bias_bump**2 * np.eye(3)
-        elif kind == "gyro":
-            self._inflate(np.r_[np.arange(nv + 3, nv + 6), bias_g])
-            self.P[self.i_bg, self.i_bg] += self.policy.gyro_bias_bump**2 * np.eye(3)
-        elif kind == "encoders":  # the arm's angles and rates
-            self._inflate(np.r_[self.i_arm, self.i_arm + nv])
-        else:  # the accelerometer: the plant's velocities and its bias; a transient the model misses (a torque
-            # step ringing the arm) is the state's to absorb, not a reason to forget the mass
-            self._inflate(np.r_[np.arange(nv, self.n), np.arange(self.i_ba.start, self.i_ba.stop)])
-
-    def _reinitialise(self, t: float) -> None:
-        """Back to the prior: the initial parameters and covariance, the biases kept, the state as it is."""
-        self.eta = self._eta_init.copy()
-        self.P = self._P_init.copy()
+        p, C = np.zeros(self.params.p_nominal.size), np.zeros_like(self._C_buf)
+        self._eng.aug_parameters(self._handle, p, C)
+        return C

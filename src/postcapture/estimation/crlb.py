@@ -27,8 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from postcapture.core import rotations as rot
-from postcapture.core.triad import calibration_sensitivity
-from postcapture.estimation.increments import mean_specific_force
+from postcapture.estimation.increments import calibration_sensitivity, mean_specific_force
 
 __all__ = ["MassCRLB", "mass_crlb"]
 

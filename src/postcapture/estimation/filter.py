@@ -21,22 +21,28 @@ the covariance grows. When recoveries do not help (``max_recoveries`` within ``r
 seconds) or the covariance stops being finite, the filter has *diverged*: the event is recorded with
 its time and cause, the filter re-initialises (its next measurement of each kind is let through
 without a gate: re-acquisition), and the run goes on.
+
+The arithmetic of every filter and this failure model run in the compiled engine (``dynamics/csrc``,
+``pc_filter.h``): the classes here and beside it are thin wrappers that hold the configuration, word the
+engine's events, keep the counts and log.
 """
 
 from __future__ import annotations
 
+import ctypes
 import enum
 import logging
-from collections import deque
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 from scipy.stats import chi2
 
+from postcapture.core.kalman import UpdateResult
 from postcapture.core.units import DEG_PER_HOUR
+from postcapture.dynamics import engine as _engine
 
-__all__ = ["FilterStatus", "Measurement", "FilterEvent", "RecoveryPolicy", "FilterBase"]
+__all__ = ["FilterStatus", "Measurement", "FilterEvent", "RecoveryPolicy", "FilterBase", "KINDS", "state_view"]
 
 logger = logging.getLogger(__name__)
 
@@ -110,17 +116,63 @@ class RecoveryPolicy:
     recovery_window: float = 60.0
 
 
-@lru_cache(maxsize=256)
-def _bound(dof: int, probability: float) -> float:
-    return float(chi2.ppf(probability, dof))
+def state_view(attr: str, doc: str) -> property:
+    """A property over one of a filter's views of the engine's state: it reads a copy and writes in place."""
+
+    def get(self) -> np.ndarray:
+        return getattr(self, attr).copy()
+
+    def put(self, value) -> None:
+        getattr(self, attr)[...] = np.asarray(value, dtype=float)
+
+    return property(get, put, doc=doc)
+
+
+KINDS = ("star_tracker", "gyro", "accelerometer", "encoders", "accelerations")
+"""Measurement kinds, in the engine's numbering."""
+
+_EVENT_TYPES = ("recovering", "recovered", "diverged", "reinitialised")
+_COUNTS = ("updates", "rejected", "measurements_missing", "recoveries", "divergences", "inputs_missing")
+
+
+@lru_cache(maxsize=64)
+def _chi2_table(probability: float, n: int) -> np.ndarray:
+    """``chi2.ppf(probability, d)`` for ``d = 0 .. n - 1`` (infinite at 0), computed once per process."""
+    table = np.full(n, np.inf)
+    table[1:] = chi2.ppf(probability, np.arange(1, n))
+    table.setflags(write=False)
+    return table
+
+
+def _word(kind: int, cause: int, n: int, a: float, b: float, text: str) -> str:
+    """The text of an event's cause (``pc_filter.h``'s PC_CAUSE_*)."""
+    name = KINDS[kind] if 0 <= kind < len(KINDS) else "?"
+    if cause == 0:
+        return f"{n} {name} samples in a row rejected by the gate (last NIS {a:.3g})"
+    if cause == 1:
+        return f"{name} innovations too large for their covariance (mean NIS {a:.3g} over {n} updates, {b:g} dof each)"
+    if cause == 2:
+        return f"{name} innovations consistent again"
+    if cause == 4:
+        return f"covariance not finite or with a negative variance after the {'update' if n else 'prediction'}"
+    if cause == 5:
+        return "innovation covariance S is not finite"
+    if cause == 6:
+        return "innovation covariance S = H P H^T + R is not positive definite"
+    if cause == 7:
+        return f"the plant copy failed: {text}"
+    return "from the next measurements"
 
 
 class FilterBase:
-    """Bookkeeping shared by every filter: status, events, counts, gating and the recovery trigger.
+    """What every filter shares: its engine handle, status, events, counts and the recovery policy.
 
-    Subclasses set ``name``, ``labels``, ``P`` and implement ``_recover(kind, t)`` (inflate what a kind
-    of measurement informs) and ``_reinitialise(t)``.
+    Subclasses create their engine filter with :meth:`_policy` and hand it to :meth:`_attach`; after every
+    engine call they call :meth:`_sync`, which takes the engine's status, counts and events (worded here)
+    and logs them. ``counts`` is a plain dict: a scheme may add its own entries.
     """
+
+    _S_PREFIX = False  # word a singular innovation covariance as "<kind> update: ..."
 
     def _init_base(self, name: str, policy: RecoveryPolicy | None, gate_probability: float | None):
         self.name = name
@@ -129,84 +181,98 @@ class FilterBase:
         self.policy = policy or RecoveryPolicy()
         self.gate_probability = gate_probability
         self.counts = {"updates": 0, "rejected": 0, "measurements_missing": 0, "recoveries": 0, "divergences": 0}
-        self._rejected_in_row: dict[str, int] = {}
-        self._nis: dict[str, deque] = {}
-        self._recoveries: deque = deque()
-        self._reacquire: set[str] = set()
+        self._seen = np.zeros(len(_COUNTS), dtype=np.int64)
+        self._counts_buf = np.zeros(len(_COUNTS), dtype=np.int64)
+        self._handle = None
+        self._eng = _engine.engine()
+        self._res = _engine.UpdateStruct()
 
-    # ------------------------------------------------------------------ gating and recovery
-    def gate(self, kind: str) -> float | None:
-        """The gate probability for the next measurement of ``kind`` (None right after a recovery)."""
-        if kind in self._reacquire:
+    def _policy(self, max_m: int) -> _engine.PolicyStruct:
+        """The engine's policy for measurements of at most ``max_m`` components."""
+        pol = self.policy
+        gate = np.zeros(max_m) if self.gate_probability is None else _chi2_table(float(self.gate_probability),
+                                                                                  max_m + 1)[1:]
+        bound = _chi2_table(float(pol.nis_probability), pol.nis_window * max_m + 1) if pol.nis_window else np.zeros(1)
+        self._tables = (np.ascontiguousarray(gate), np.ascontiguousarray(bound))  # alive while the struct is
+        dp = ctypes.POINTER(ctypes.c_double)
+        return _engine.PolicyStruct(
+            pol.reject_limit, pol.nis_window, pol.max_recoveries, int(self.gate_probability is not None), max_m,
+            self._tables[1].size, pol.inflation, pol.gyro_bias_bump, pol.recovery_window,
+            self._tables[0].ctypes.data_as(dp), self._tables[1].ctypes.data_as(dp))
+
+    def _attach(self, handle) -> None:
+        if not handle:
+            raise MemoryError(f"{self.name}: the engine could not create the filter")
+        self._handle = handle
+        size = ctypes.c_size_t()
+        ptr = self._eng.filter_state(handle, ctypes.byref(size))
+        self._state = np.ctypeslib.as_array(ptr, shape=(size.value,))  # the engine's own memory, a live view
+
+    def __del__(self):
+        handle, eng = getattr(self, "_handle", None), getattr(self, "_eng", None)
+        if handle and eng is not None:
+            eng.filter_destroy(handle)
+            self._handle = None
+
+    def _sync(self) -> None:
+        """Status, counts and events from the engine (after every call that may change them)."""
+        eng, h = self._eng, self._handle
+        status = eng.filter_status(h, self._counts_buf)
+        delta = self._counts_buf - self._seen
+        if delta.any():
+            for key, d in zip(_COUNTS, delta.tolist()):
+                if d:
+                    self.counts[key] = self.counts.get(key, 0) + d
+            self._seen[:] = self._counts_buf
+        self.status = (FilterStatus.RUNNING, FilterStatus.RECOVERING, FilterStatus.DIVERGED)[status]
+        while True:
+            nums = np.zeros((16, _engine.EVENT_DOUBLES))
+            text = ctypes.create_string_buffer(16 * _engine.EVENT_TEXT)
+            n = eng.filter_events(h, nums, text, 16)
+            for i in range(n):
+                self._event(nums[i], text.raw[i * _engine.EVENT_TEXT:(i + 1) * _engine.EVENT_TEXT])
+            if n < 16:
+                break
+
+    def _event(self, e: np.ndarray, raw: bytes) -> None:
+        t, kind, cause, who = float(e[0]), _EVENT_TYPES[int(e[1])], int(e[2]), int(e[3])
+        text = raw.split(b"\0", 1)[0].decode(errors="replace")
+        if cause == 3:  # too many recoveries: the last one's cause inside
+            inner = _word(int(e[8]), int(e[7]), int(e[9]), float(e[10]), float(e[11]), "")
+            words = f"{int(e[4])} recoveries within {float(e[5]):g} s; last: {inner}"
+        else:
+            words = _word(who, cause, int(e[4]), float(e[5]), float(e[6]), text)
+            if cause in (5, 6) and self._S_PREFIX:
+                words = f"{KINDS[int(e[4])]} update: {words}"
+        self.events.append(FilterEvent(t, kind, words))
+        if kind == "recovering":
+            logger.warning("%s: recovering at t = %.6g s: %s", self.name, t, words)
+        elif kind == "diverged":
+            logger.error("%s diverged at t = %.6g s: %s", self.name, t, words)
+
+    def _result(self, kind: str, t: float, K=None) -> UpdateResult | None:
+        """The engine's last update as an :class:`~postcapture.core.kalman.UpdateResult` (None when missing)."""
+        r = self._res
+        self._sync()
+        if r.missing:
             return None
-        return self.gate_probability
+        m = r.m
+        S = np.ctypeslib.as_array(r.S)[: m * m].reshape(m, m).copy()
+        nu = np.ctypeslib.as_array(r.innovation)[:m].copy()
+        if not r.accepted:
+            logger.info("%s: %s sample at t = %.6g s rejected (NIS %.3g)", self.name, kind, t, r.nis)
+        return UpdateResult(None, None, nu, S, K, float(r.nis), bool(r.accepted),
+                            None if r.threshold < 0 else float(r.threshold))
 
-    def record(self, kind: str, t: float, nis: float, dof: int, accepted: bool) -> None:
-        """Book one update (accepted or rejected) and start a recovery when the innovations say so."""
-        self._reacquire.discard(kind)
-        if not accepted:
-            self.counts["rejected"] += 1
-            n = self._rejected_in_row.get(kind, 0) + 1
-            self._rejected_in_row[kind] = n
-            logger.info("%s: %s sample at t = %.6g s rejected (NIS %.3g)", self.name, kind, t, nis)
-            if n >= self.policy.reject_limit:
-                self._start_recovery(kind, t, f"{n} {kind} samples in a row rejected by the gate (last NIS {nis:.3g})")
-            return
-        self.counts["updates"] += 1
-        self._rejected_in_row[kind] = 0
-        window = self.policy.nis_window
-        if not window:
-            return
-        buf = self._nis.setdefault(kind, deque(maxlen=window))
-        buf.append((nis, dof))
-        if len(buf) == window:
-            total, dofs = sum(x for x, _ in buf), sum(d for _, d in buf)
-            if total > _bound(dofs, self.policy.nis_probability):
-                self._start_recovery(kind, t, f"{kind} innovations too large for their covariance (mean NIS "
-                                              f"{total / window:.3g} over {window} updates, {dofs / window:g} dof each)")
-            elif self.status is FilterStatus.RECOVERING:
-                self.status = FilterStatus.RUNNING
-                self.events.append(FilterEvent(t, "recovered", f"{kind} innovations consistent again"))
+    P = state_view("_P", "Error covariance over :attr:`labels` (a copy; assigning writes the engine's).")
 
-    def _start_recovery(self, kind: str, t: float, cause: str) -> None:
-        self._rejected_in_row[kind] = 0
-        self._nis.pop(kind, None)
-        while self._recoveries and self._recoveries[0] < t - self.policy.recovery_window:
-            self._recoveries.popleft()
-        self._recoveries.append(t)
-        if len(self._recoveries) > self.policy.max_recoveries:
-            self.diverge(t, f"{len(self._recoveries)} recoveries within {self.policy.recovery_window:g} s; last: {cause}")
-            return
-        self.counts["recoveries"] += 1
-        self.status = FilterStatus.RECOVERING
-        self.events.append(FilterEvent(t, "recovering", cause))
-        logger.warning("%s: recovering at t = %.6g s: %s", self.name, t, cause)
-        self._recover(kind, t)
+    def snapshot(self) -> np.ndarray:
+        """The filter's state (estimate and covariance, not its failure model's), to :meth:`restore`."""
+        return self._state.copy()
 
-    def diverge(self, t: float, cause: str) -> None:
-        """Record a divergence (time and cause), re-initialise, and go on."""
-        self.counts["divergences"] += 1
-        self.status = FilterStatus.DIVERGED
-        self.events.append(FilterEvent(t, "diverged", cause))
-        logger.error("%s diverged at t = %.6g s: %s", self.name, t, cause)
-        self._recoveries.clear()
-        self._nis.clear()
-        self._reinitialise(t)
-        self.events.append(FilterEvent(t, "reinitialised", "from the next measurements"))
-        self.status = FilterStatus.RECOVERING
-        self._reacquire.update(("star_tracker", "gyro", "accelerations"))
-
-    def check_covariance(self, t: float, where: str) -> bool:
-        """True when ``P`` is finite with a non-negative diagonal; otherwise a divergence.
-
-        (A covariance may be singular on purpose: a cloned state, a prior on a curve. The Joseph update
-        keeps it positive semi-definite; what this catches is a filter gone numerically wrong.)
-        """
-        P = self.P
-        ok = bool(np.all(np.isfinite(P))) and bool(np.all(np.diag(P) >= 0.0))
-        if not ok:
-            self.diverge(t, f"covariance not finite or with a negative variance after the {where}")
-        return ok
+    def restore(self, snap) -> None:
+        """Back to a :meth:`snapshot` (a fault found late is re-processed from there)."""
+        self._state[:] = snap
 
     @property
     def diverged_at(self) -> float | None:
@@ -215,11 +281,3 @@ class FilterBase:
             if e.kind == "diverged":
                 return e.t
         return None
-
-    # ------------------------------------------------------------------ hooks
-    def _recover(self, kind: str, t: float) -> None:  # pragma: no cover - every filter overrides
-        raise NotImplementedError
-
-    def _reinitialise(self, t: float) -> None:  # pragma: no cover
-        raise NotImplementedError
-

@@ -14,20 +14,29 @@ the integral of an acceleration is a velocity change), so a filter predicts them
 ``t_k`` (a clone) and its prediction at ``t_k+1`` with exact Jacobians. (Gravity-gradient specific force,
 when the orbit is modelled, adds its own integral; it is below a thousandth of the noise here.)
 
-Perturbations are right perturbations of each attitude (``q (+) d``) and additive on the twists.
+Perturbations are right perturbations of each attitude (``q (+) d``) and additive on the twists. The
+arithmetic is the compiled engine's (``dynamics/csrc/pc_increments.c``), which the filters run; these are
+its Python entry points. So is the filters' model of a triad's calibration (scale factors and misalignments,
+:mod:`postcapture.core.triad`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from postcapture.core import rotations as rot
+from postcapture.dynamics import engine as _engine
 
-__all__ = ["mean_rate", "mean_specific_force", "tidal_mean_B0"]
+__all__ = ["mean_rate", "mean_specific_force", "tidal_mean_B0", "calibration_matrix", "calibration_sensitivity"]
+
+_JACOBIANS = ("att1", "att0", "v1", "w1", "v0", "w0")
+
+
+def _v3(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float)
 
 
 def mean_rate(q0_BN, q1_BN, dt: float):
-    """The mean body rate over a cycle ``phi / dt`` and its Jacobians.
+    """The mean body rate over a cycle ``phi / dt`` and its Jacobians (computed by the engine, ``pc_increments.c``).
 
     Returns
     -------
@@ -38,12 +47,15 @@ def mean_rate(q0_BN, q1_BN, dt: float):
     phi : ndarray (3,)
         The rotation vector (rad).
     """
-    phi = rot.box_minus(q1_BN, q0_BN)
-    return phi / dt, rot.right_jacobian_inv(phi) / dt, -rot.left_jacobian_inv(phi) / dt, phi
+    z, H1, H0, phi = np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3)
+    _engine.engine().mean_rate(_v3(q0_BN), _v3(q1_BN), float(dt), z, H1, H0, phi)
+    return z, H1, H0, phi
 
 
 def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
     """The sensor point's mean specific force over a cycle, ``(Exp(phi) u1 - u0) / dt``, and its Jacobians.
+
+    Computed by the engine (``pc_increments.c``), the filters' own measurement model.
 
     Parameters
     ----------
@@ -64,20 +76,10 @@ def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
         Derivatives with respect to ``att1``, ``att0`` (right perturbations of the attitudes at the end
         and at the start), ``v1``, ``w1``, ``v0``, ``w0``.
     """
-    E = rot.exp_matrix(phi)
-    R = rot.skew(r_B)
-    u0 = v0_B - R @ w0_B
-    u1 = v1_B - R @ w1_B
-    Eu1 = E @ u1
-    J = {
-        "att1": -(E @ rot.skew(u1)) / dt,
-        "att0": rot.skew(Eu1) / dt,
-        "v1": E / dt,
-        "w1": -(E @ R) / dt,
-        "v0": -np.eye(3) / dt,
-        "w0": R / dt,
-    }
-    return (Eu1 - u0) / dt, J
+    z, J = np.zeros(3), np.zeros((6, 3, 3))
+    _engine.engine().mean_specific_force(_v3(phi), _v3(v0_B), _v3(w0_B), _v3(v1_B), _v3(w1_B), _v3(r_B), float(dt),
+                                         z, J)
+    return z, dict(zip(_JACOBIANS, J))
 
 
 def tidal_mean_B0(q0_BN, r0_N, q1_BN, r1_N, r_B, mean_motion: float, t0: float, t1: float) -> np.ndarray:
@@ -88,14 +90,24 @@ def tidal_mean_B0(q0_BN, r0_N, q1_BN, r1_N, r_B, mean_motion: float, t0: float, 
     ends (trapezoid: the field changes over 0.1 s by a part in 10^4 of itself). An accelerometer reads the
     specific force, the acceleration less this: ``(mean specific force) = (kinematic mean) - tidal``.
     Its derivatives (about ``3 n^2``, 3e-6 (m/s^2)/m at 770 km) are left out of the measurement Jacobians.
+    Computed by the engine (``pc_increments.c``), the filters' own model of it.
     """
-    if not mean_motion:
-        return np.zeros(3)
-    n2 = mean_motion**2
-    total = np.zeros(3)
-    for q, r, t in ((q0_BN, r0_N, t0), (q1_BN, r1_N, t1)):
-        p = np.asarray(r, dtype=float) + rot.dcm_from_quat(q).T @ np.asarray(r_B, dtype=float)
-        z = np.array([np.cos(mean_motion * t), np.sin(mean_motion * t), 0.0])
-        total += n2 * (3.0 * z * (z @ p) - p)
-    return rot.dcm_from_quat(q0_BN) @ (0.5 * total)
+    out = np.zeros(3)
+    if mean_motion:
+        _engine.engine().tidal_mean(_v3(q0_BN), _v3(r0_N), _v3(q1_BN), _v3(r1_N), _v3(r_B), float(mean_motion),
+                                    float(t0), float(t1), out)
+    return out
 
+
+def calibration_matrix(c) -> np.ndarray:
+    """``C`` (3, 3) of a triad's calibration vector ``c = (s (3), m (6))`` (:mod:`postcapture.core.triad`)."""
+    C = np.zeros((3, 3))
+    _engine.engine().triad_matrix(np.ascontiguousarray(c, dtype=float), C)
+    return C
+
+
+def calibration_sensitivity(w) -> np.ndarray:
+    """``d (C w) / d c`` (3, 9): how errors of the calibration vector move the triad's reading of ``w``."""
+    D = np.zeros((3, 9))
+    _engine.engine().triad_sensitivity(_v3(w), D)
+    return D

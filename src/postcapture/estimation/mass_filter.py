@@ -15,16 +15,18 @@ derivative at a fixed plant state. ``sensitivity="total"`` adds the plant state'
 the mass: ``dz/dtheta = H S + h`` with ``S = dx/dtheta`` carried through the model's exact step Jacobians
 (``S <- F S + g``), the recurrent derivative of Wan and Nelson's dual EKF. The caller (the dual scheme)
 owns ``S``.
+
+The arithmetic (the schedule, the update, the clamp, the recovery) runs in the compiled engine
+(``pc_mass_filter.c``); the map's inverse, used once to start, is :class:`~postcapture.core.sigmoid.SigmoidMap`'s.
 """
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from postcapture.core import kalman
-from postcapture.core.errors import CovarianceError
 from postcapture.core.sigmoid import SigmoidMap
 from postcapture.estimation.filter import FilterBase, RecoveryPolicy
 
@@ -103,45 +105,54 @@ class MassFilter(FilterBase):
         self.map = tuning.sigmoid
         self.nb = 3 if tuning.accel_bias else 0
         self.labels = ("mass_preimage",) + tuple(f"accel_bias_{a}" for a in "xyz")[: self.nb]
-        self.s = np.zeros(1 + self.nb)  # [x, accelerometer bias (3)]
-        self.s[0] = float(self.map.inverse(theta0))
-        self.P = np.zeros((1 + self.nb, 1 + self.nb))
-        self.P[0, 0] = float(tuning.P0)
-        self.P[1:, 1:] = tuning.P0_accel_bias * np.eye(self.nb)
-        self._P0 = self.P.copy()
         self.t0, self.t_end = float(t0), float(t_end)
+        m = self.map
+        self._attach(self._eng.massf_create(self.nb, float(m.inverse(theta0)), float(tuning.P0),
+                                            float(tuning.P0_accel_bias), float(tuning.q_start), float(tuning.q_end),
+                                            float(tuning.q_accel_bias), m.a, m.b, m.c, self.t0, self.t_end,
+                                            ctypes.byref(self._policy(tuning.R_diag.size))))
+        n = 1 + self.nb
+        self._s, self._P = self._state[:n], self._state[n:].reshape(n, n)
+
+    @property
+    def s(self) -> np.ndarray:
+        """The state: the sigmoid pre-image of the mass, then the accelerometer bias (when estimated)."""
+        return self._s.copy()
+
+    def _map(self):
+        theta, slope = ctypes.c_double(), ctypes.c_double()
+        m = self.map
+        self._eng.sigmoid(m.a, m.b, m.c, float(self._s[0]), ctypes.byref(theta), ctypes.byref(slope))
+        return theta.value, slope.value
 
     @property
     def x(self) -> float:
         """The sigmoid pre-image of the mass."""
-        return float(self.s[0])
+        return float(self._s[0])
 
     @property
     def theta(self) -> float:
         """Mass estimate (kg)."""
-        return float(self.map.forward(self.x))
+        return self._map()[0]
 
     @property
     def sigma(self) -> float:
         """One-sigma of the mass estimate (kg), through the map's slope."""
-        return float(abs(self.map.derivative(self.x)) * np.sqrt(self.P[0, 0]))
+        return float(abs(self._map()[1]) * np.sqrt(self._P[0, 0]))
 
     @property
     def accel_bias(self) -> np.ndarray:
         """Accelerometer-bias estimate (m/s^2); zeros when not estimated."""
-        return self.s[1:].copy() if self.nb else np.zeros(3)
+        return self._s[1:].copy() if self.nb else np.zeros(3)
 
     def process_noise(self, t: float) -> float:
         """Scheduled variance added per step at time ``t``."""
-        span = max(self.t_end - self.t0, 1e-12)
-        a = min(max((t - self.t0) / span, 0.0), 1.0)
-        return self.tuning.q_start + a * (self.tuning.q_end - self.tuning.q_start)
+        return float(self._eng.massf_noise(self._handle, float(t)))
 
     def predict(self, t: float, dt: float = 0.0, u=None) -> None:
-        """Random-walk prediction of the mass (scheduled at ``t``) and of the bias (``dt``, ``u`` unused)."""
-        self.P[0, 0] += self.process_noise(t)
-        if self.nb:
-            self.P[1:, 1:] += self.tuning.q_accel_bias * np.eye(self.nb)
+        """Random-walk prediction of the mass (its variance scheduled at ``t``) and of the bias (``dt``, ``u``
+        unused)."""
+        self._eng.massf_predict(self._handle, float(t))
 
     def update(self, z):
         """Correct with a linearised accelerations :class:`~postcapture.estimation.filter.Measurement`.
@@ -150,37 +161,7 @@ class MassFilter(FilterBase):
         filter subtracts its own bias estimate) and ``z.H`` is ``dz/dtheta`` (m,). Returns the update
         result (with ``nis``), or None when no component was valid.
         """
-        nu = np.array(z.value, dtype=float)
-        dz = np.asarray(z.H, dtype=float)
-        if self.nb:
-            nu[:3] -= self.s[1:]
-        ok = np.isfinite(nu) & np.isfinite(dz)
-        if not ok.any():
-            self.counts["measurements_missing"] += 1
-            return None
-        H = np.zeros((nu.size, 1 + self.nb))
-        H[:, 0] = dz * self.map.derivative(self.x)
-        if self.nb:
-            H[:3, 1:] = np.eye(3)
-        R = np.asarray(z.R, dtype=float)
-        try:
-            res = kalman.update(np.zeros(1 + self.nb), self.P, nu[ok], H[ok], R[np.ix_(ok, ok)],
-                                gate_probability=self.gate(z.kind))
-        except CovarianceError as exc:
-            self.diverge(z.t, str(exc))
-            return None
-        if res.accepted:
-            self.s = self.s + res.x
-            # keep the pre-image where the sigmoid is not flat in floating point (|c x| < 30)
-            limit = 30.0 / self.map.c
-            self.s[0] = min(max(self.s[0], -limit), limit)
-            self.P = res.P
-        self.record(z.kind, z.t, res.nis, int(ok.sum()), res.accepted)
-        self.check_covariance(z.t, "update")
-        return res
-
-    def _recover(self, kind: str, t: float) -> None:
-        self.P = self.P * self.policy.inflation
-
-    def _reinitialise(self, t: float) -> None:
-        self.P = self._P0.copy()
+        nu = np.ascontiguousarray(z.value, dtype=float)
+        self._eng.massf_update(self._handle, float(z.t), nu.size, nu, np.ascontiguousarray(z.H, dtype=float),
+                               np.ascontiguousarray(z.R, dtype=float), ctypes.byref(self._res))
+        return self._result(z.kind, z.t)

@@ -30,16 +30,16 @@ Spacecraft Attitude Determination and Control*, Springer, 2014, sections 6.2.4 a
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from postcapture.core import kalman
 from postcapture.core import rotations as rot
+from postcapture.core.kalman import UpdateResult
 from postcapture.core.errors import (
-    CovarianceError,
     DimensionError,
     FilterDivergenceError,
     Problem,
@@ -49,9 +49,10 @@ from postcapture.core.errors import (
 from postcapture.core.timegrid import default_tolerance, merge_times
 from postcapture.core.units import DEG
 from postcapture.estimation.attitude_ekf import REACQUIRE_ATTITUDE
-from postcapture.estimation.filter import FilterBase, Measurement
+from postcapture.estimation.filter import FilterBase, Measurement, state_view
 from postcapture.estimation.history import EstimateHistory, SampledSignal, StepFlag
-from postcapture.core.triad import CALIBRATION_LABELS, calibration_matrix, calibration_sensitivity
+from postcapture.core.triad import CALIBRATION_LABELS
+from postcapture.dynamics import engine as _engine
 
 __all__ = [
     "MEKFTuning",
@@ -122,7 +123,7 @@ class MEKFTuning:
 
 
 def error_transition(omega_B, dt: float) -> np.ndarray:
-    """Closed-form error-state transition ``Phi`` (6, 6) over ``dt`` (s).
+    """Closed-form error-state transition ``Phi`` (6, 6) over ``dt`` (s), computed by the engine.
 
     Parameters
     ----------
@@ -131,27 +132,13 @@ def error_transition(omega_B, dt: float) -> np.ndarray:
     dt : float
         Step (s).
     """
-    w = np.asarray(omega_B, dtype=float)
-    a2 = float(w @ w)
-    a = math.sqrt(a2)
-    W = rot.skew(w)
-    W2 = np.outer(w, w) - a2 * np.eye(3)  # [w x]^2
-    th = a * dt
-    if th < 1e-4:  # Taylor series of the coefficients
-        c1, c2 = dt * (1.0 - th * th / 6.0), dt * dt * (0.5 - th * th / 24.0)
-        c3 = dt**3 * (1.0 / 6.0 - th * th / 120.0)
-    else:
-        s, c = math.sin(th), math.cos(th)
-        c1, c2, c3 = s / a, (1.0 - c) / a2, (th - s) / (a2 * a)
-    Phi = np.eye(6)
-    Phi[:3, :3] += c2 * W2 - c1 * W
-    Phi[:3, 3:] = c2 * W - c3 * W2
-    Phi[[0, 1, 2], [3, 4, 5]] -= dt
+    Phi = np.zeros((6, 6))
+    _engine.engine().mekf_transition(np.ascontiguousarray(omega_B, dtype=float), float(dt), Phi)
     return Phi
 
 
 def process_noise(sigma_v: float, sigma_u: float, dt: float) -> np.ndarray:
-    """Discrete process-noise covariance (6, 6) of the attitude/bias error over ``dt`` (s).
+    """Discrete process-noise covariance (6, 6) of the attitude/bias error over ``dt`` (s), computed by the engine.
 
     Parameters
     ----------
@@ -162,14 +149,16 @@ def process_noise(sigma_v: float, sigma_u: float, dt: float) -> np.ndarray:
     dt : float
         Step (s).
     """
-    q11 = sigma_v**2 * dt + sigma_u**2 * dt**3 / 3.0
-    q12 = -0.5 * sigma_u**2 * dt**2
-    q22 = sigma_u**2 * dt
-    return np.kron(np.array([[q11, q12], [q12, q22]]), np.eye(3))
+    Q = np.zeros((6, 6))
+    _engine.engine().mekf_noise(float(sigma_v), float(sigma_u), float(dt), Q)
+    return Q
 
 
 class MEKF(FilterBase):
     """Stepper: propagate with gyro samples, correct with star-tracker quaternions (see :mod:`.filter`).
+
+    The arithmetic runs in the compiled engine (``pc_mekf.c``); this object holds its configuration and
+    exposes its state.
 
     Parameters
     ----------
@@ -200,105 +189,74 @@ class MEKF(FilterBase):
                  reacquire_bias: float = DEG):
         self._init_base(tuning.name, recovery, tuning.gate_probability)
         self.tuning = tuning
-        self.q_BN = rot.normalize(_vec(q0_BN, "q0_BN", 4))
-        self.bias_B = np.zeros(3) if bias0_B is None else _vec(bias0_B, "bias0_B", 3)
+        q0 = _vec(q0_BN, "q0_BN", 4)
+        bias0 = np.zeros(3) if bias0_B is None else _vec(bias0_B, "bias0_B", 3)
         P0 = np.asarray(P0, dtype=float)
         if P0.shape not in ((6, 6), (15, 15)):
             raise DimensionError(
                 f"Incompatible dimensions of P0 matrix; expected (6, 6) or (15, 15) but found {P0.shape}"
             )
-        self.m = P0.shape[0]
-        self.labels = ERROR_LABELS + (tuple(f"d{label}" for label in CALIBRATION_LABELS) if self.m == 15 else ())
-        self.calibration = np.zeros(self.m - 6)
-        self._H = np.hstack([np.eye(3), np.zeros((3, self.m - 3))])
-        self.P = kalman.symmetrize(P0)
-        self._P0 = self.P.copy()
-        self.t = float(t0)
-        self.reacquire_bias = float(reacquire_bias)
-        self.counts["inputs_missing"] = 0
-        self._Q_cache: dict[float, np.ndarray] = {}
+        self.m = m = P0.shape[0]
+        self.labels = ERROR_LABELS + (tuple(f"d{label}" for label in CALIBRATION_LABELS) if m == 15 else ())
         try:
-            np.linalg.cholesky(self.P)
+            np.linalg.cholesky(0.5 * (P0 + P0.T))
         except np.linalg.LinAlgError:
             raise ScenarioError([Problem("MEKF.P0", "a positive definite (6, 6) covariance", repr(P0))]) from None
+        self.reacquire_bias = float(reacquire_bias)
+        self.counts["inputs_missing"] = 0
+        self._attach(self._eng.mekf_create(m, np.ascontiguousarray(q0), np.ascontiguousarray(bias0),
+                                           np.ascontiguousarray(P0), float(t0), tuning.sigma_v, tuning.sigma_u,
+                                           REACQUIRE_ATTITUDE, self.reacquire_bias, ctypes.byref(self._policy(3))))
+        st = self._state
+        self._q, self._b, self._c = st[0:4], st[4:7], st[7:m + 1]
+        self._t = st[m + 1:m + 2]
+        self._P = st[m + 2:].reshape(m, m)
 
+    # ------------------------------------------------------------------ the state (the engine's)
+    @property
+    def q_BN(self) -> np.ndarray:
+        """Attitude estimate (scalar first)."""
+        return self._q.copy()
+
+    @q_BN.setter
+    def q_BN(self, value) -> None:
+        self._q[:] = rot.normalize(_vec(value, "q_BN", 4))
+
+    bias_B = state_view("_b", "Gyro-bias estimate (rad/s).")
+    calibration = state_view("_c", "Gyro scale-factor and misalignment estimates (9; none with 6 states).")
+
+    @property
+    def t(self) -> float:
+        """Time of the estimate (s)."""
+        return float(self._t[0])
+
+    @t.setter
+    def t(self, value: float) -> None:
+        self._t[0] = float(value)
+
+    # ------------------------------------------------------------------ the stepper
     def predict(self, t: float, dt: float, u) -> None:
         """Propagate from ``t`` over ``dt`` (s) with the gyro sample ``u`` (3,) (rad/s) held constant."""
         w = _vec(u, "u (gyro sample)", 3)
         if not np.all(np.isfinite(w)):
             raise ValueError("`u` must be finite; skip or hold missing gyro samples before calling predict")
-        w = w - self.bias_B
-        if self.m == 15:
-            w = np.linalg.solve(calibration_matrix(self.calibration), w)
-        self.q_BN = rot.box_plus(self.q_BN, w * dt)
-        Q = self._Q_cache.get(dt)
-        if Q is None:
-            if len(self._Q_cache) > 64:  # irregular steps: keep the cache small
-                self._Q_cache.clear()
-            Q = np.zeros((self.m, self.m))
-            Q[:6, :6] = process_noise(self.tuning.sigma_v, self.tuning.sigma_u, dt)
-            self._Q_cache[dt] = Q
-        Phi6 = error_transition(w, dt)
-        if self.m == 15:
-            Phi = np.eye(15)
-            Phi[:6, :6] = Phi6
-            Phi[:3, 6:] = Phi6[:3, 3:] @ calibration_sensitivity(w)
-        else:
-            Phi = Phi6
-        _, self.P = kalman.predict(np.zeros(self.m), self.P, Phi, Q)
-        self.t = float(t) + dt
-        self.check_covariance(self.t, "prediction")
+        self._eng.mekf_predict(self._handle, float(t), float(dt), np.ascontiguousarray(w))
+        self._sync()
 
-    def update(self, z) -> kalman.UpdateResult | None:
+    def update(self, z) -> UpdateResult | None:
         """Correct with a star-tracker :class:`~postcapture.estimation.filter.Measurement` (4,).
 
         Returns the kernel's :class:`~postcapture.core.kalman.UpdateResult`, or None when the sample is
         not finite (skipped and counted). A sample rejected by the gate leaves the state unchanged.
         """
-        q = _vec(z.value, "star-tracker value", 4)
-        if not np.all(np.isfinite(q)) or not np.linalg.norm(q) > 0:
-            self.counts["measurements_missing"] += 1
-            return None
-        innovation = rot.box_minus(q, self.q_BN)
-        try:
-            res = kalman.update(np.zeros(self.m), self.P, innovation, self._H, z.R, gate_probability=self.gate(z.kind))
-        except CovarianceError as exc:
-            self.diverge(z.t, str(exc))
-            return None
-        if res.accepted:
-            # reset: move the error into the attitude and the bias (the covariance reset Jacobian
-            # I - [dtheta x]/2 differs from I at second order only, and is left out as usual)
-            self.q_BN = rot.box_plus(self.q_BN, res.x[:3])
-            self.bias_B = self.bias_B + res.x[3:6]
-            self.calibration = self.calibration + res.x[6:]
-            self.P = res.P
-        self.record(z.kind, z.t, res.nis, 3, res.accepted)  # after the update: a recovery inflates the new P
-        if res.accepted:
-            self.check_covariance(z.t, "update")
-        return res
-
-    def snapshot(self):
-        """Attitude, bias, calibration and covariance, to :meth:`restore`."""
-        return self.q_BN.copy(), self.bias_B.copy(), self.calibration.copy(), self.P.copy(), self.t
-
-    def restore(self, snap) -> None:
-        """Back to a :meth:`snapshot`."""
-        q, b, c, P, self.t = snap
-        self.q_BN, self.bias_B, self.calibration, self.P = q.copy(), b.copy(), c.copy(), P.copy()
+        q = np.ascontiguousarray(_vec(z.value, "star-tracker value", 4))
+        self._eng.mekf_update(self._handle, float(z.t), q, np.ascontiguousarray(z.R, dtype=float),
+                              ctypes.byref(self._res))
+        return self._result(z.kind, z.t)
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:
         """Let the gyro bias on one axis (``sensor`` is ``"gyro"``) step now by ``sigma`` (1-sigma)."""
-        self.P[3 + axis, 3 + axis] += sigma**2
-
-    def _recover(self, kind: str, t: float) -> None:
-        d = np.sqrt(self.policy.inflation)
-        self.P = self.P * d * d
-        self.P[3:6, 3:6] += self.policy.gyro_bias_bump**2 * np.eye(3)
-
-    def _reinitialise(self, t: float) -> None:
-        self.P = self._P0.copy()
-        self.P[:3, :3] += REACQUIRE_ATTITUDE**2 * np.eye(3)  # lost: the next star-tracker sample decides
-        self.P[3:6, 3:6] += self.reacquire_bias**2 * np.eye(3)
+        self._P[3 + axis, 3 + axis] += sigma**2
 
 
 def _vec(v, name: str, n: int) -> np.ndarray:

@@ -13,6 +13,9 @@ Parameters come in the groups of the scenario's ``[uncertainty]``: ``target``, `
 ``panel_torsion``, ``panel_damping``, ``arm_stiffness``, ``arm_damping``. A filter estimates some groups
 (augmented state) and considers others (Schmidt: their covariance enters the filter, their value is
 never updated); the rest are known.
+
+The map ``eta -> p`` and its derivative are computed by the compiled engine (``pc_parameters.c``), which
+the filters run.
 """
 
 from __future__ import annotations
@@ -22,8 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from postcapture.core import log_cholesky as lc
+from postcapture.dynamics import engine as _engine
 
-__all__ = ["GROUPS", "group_of", "ParameterMap"]
+__all__ = ["GROUPS", "group_of", "ParameterMap", "pi_from_theta", "dpi_dtheta"]
 
 GROUPS = ("target", "panel_bending", "panel_torsion", "panel_damping", "arm_stiffness", "arm_damping")
 _SUFFIX = {".bending_scale": "panel_bending", ".torsion_scale": "panel_torsion", ".damping_scale": "panel_damping"}
@@ -41,6 +45,20 @@ def group_of(name: str) -> str:
         if name.endswith(suffix):
             return group
     raise ValueError(f"parameter name: expected a target, panel or arm parameter, found {name!r}")
+
+
+def pi_from_theta(theta) -> np.ndarray:
+    """Inertial parameters of log-Cholesky coordinates (always a physical body; :mod:`postcapture.core.log_cholesky`)."""
+    pi = np.zeros(10)
+    _engine.engine().log_cholesky(np.ascontiguousarray(theta, dtype=float), pi, None)
+    return pi
+
+
+def dpi_dtheta(theta) -> np.ndarray:
+    """Jacobian ``d pi / d theta`` (10 x 10), exact: ``dJ = dU U^T + U dU^T`` and ``pi`` is linear in ``J``."""
+    J = np.zeros((10, 10))
+    _engine.engine().log_cholesky(np.ascontiguousarray(theta, dtype=float), None, J)
+    return J
 
 
 @dataclass(frozen=True)
@@ -83,18 +101,23 @@ class ParameterMap:
         self.labels = tuple(label for b in self.blocks for label in b.labels)
         self.size = len(self.labels)
         self.groups = tuple(b.group for b in self.blocks)
+        self._spec = self.spec
+
+    @property
+    def spec(self) -> np.ndarray:
+        """The map as the engine reads it: ``[n_blocks, then per block: kind (0 log-Cholesky, 1 log), size,
+        the model indices]`` (int32)."""
+        out = [len(self.blocks)]
+        for b in self.blocks:
+            out += [0 if b.group == "target" else 1, len(b.model_index), *b.model_index]
+        return np.asarray(out, dtype=np.int32)
 
     def to_model(self, eta, p=None) -> np.ndarray:
         """The model's parameter vector for coordinates ``eta`` (others from ``p``, by default the nominal)."""
-        out = (self.p_nominal if p is None else np.asarray(p, dtype=float)).copy()
-        k = 0
-        for b in self.blocks:
-            n = len(b.labels)
-            if b.group == "target":
-                out[list(b.model_index)] = lc.pi_from_theta(eta[k : k + n])
-            else:
-                out[list(b.model_index)] = np.exp(eta[k : k + n])
-            k += n
+        out = np.zeros(self.p_nominal.size)
+        base = self.p_nominal if p is None else np.asarray(p, dtype=float)
+        _engine.engine().parammap_apply(self._spec, np.ascontiguousarray(base), base.size,
+                                        np.ascontiguousarray(eta, dtype=float), out, None)
         return out
 
     def from_model(self, p) -> np.ndarray:
@@ -109,15 +132,8 @@ class ParameterMap:
     def jacobian(self, eta) -> np.ndarray:
         """``d p / d eta`` (n_p x size)."""
         J = np.zeros((self.p_nominal.size, self.size))
-        k = 0
-        for b in self.blocks:
-            n = len(b.labels)
-            rows = list(b.model_index)
-            if b.group == "target":
-                J[np.ix_(rows, range(k, k + n))] = lc.dpi_dtheta(eta[k : k + n])
-            else:
-                J[rows, range(k, k + n)] = np.exp(eta[k : k + n])
-            k += n
+        _engine.engine().parammap_apply(self._spec, self.p_nominal, self.p_nominal.size,
+                                        np.ascontiguousarray(eta, dtype=float), None, J)
         return J
 
     def slice(self, group: str) -> slice:

@@ -20,7 +20,7 @@ from postcapture.dynamics.accuracy import choose_step, newton_for
 from postcapture.dynamics.build import build_system, initial_state
 from postcapture.dynamics.simulate import simulate_system
 
-__all__ = ["machine_info", "run_benchmark", "compile_time"]
+__all__ = ["machine_info", "run_benchmark", "compile_time", "campaign_time"]
 
 
 def machine_info() -> dict:
@@ -107,6 +107,41 @@ def _predict_ms(scenario, n: int, repeats: int = 200, *, integrator: str = "sdir
     return (time.process_time() - t0) / repeats * 1e3
 
 
+def _filter_rtf(scenario, case: str, duration: float, profile: str = "reference") -> float:
+    """Simulated seconds per CPU second of one estimation case (the engine's filters over ``duration``).
+
+    The truth, its sensors, the model noise and the filters' prior are computed first and not timed (a campaign
+    worker computes the prior once per process): what is timed is the case itself, its filters' set-up included.
+    """
+    from postcapture.studies.main_job import draw_sensors, run_case, simulate_truth
+    from postcapture.studies.robust import with_model_noise
+    from postcapture.studies.setup import plan_run
+
+    plan = with_model_noise(plan_run(scenario, profile=profile, duration=duration, cases=(case,)))
+    traj = simulate_truth(plan)
+    sensors, dq0 = draw_sensors(plan, traj, plan.seed)
+    run_case(plan, case, sensors, traj["q_BN"][:, 0], dq0)  # warms the per-process caches (the prior)
+    t0 = time.process_time()
+    res = run_case(plan, case, sensors, traj["q_BN"][:, 0], dq0)
+    cpu = time.process_time() - t0
+    if not np.isfinite(res.mass[-1]):
+        raise RuntimeError(f"bench: the {case} case failed: {getattr(res.attitude, 'message', '')}")
+    return duration / cpu
+
+
+def campaign_time(scenario_name: str = "envisat", runs: int = 50, workers: int = 2) -> float:
+    """Wall seconds of a dispersed campaign of ``dual`` and ``joint`` (realistic profile, 300 s runs, no bounds)."""
+    import tempfile as _tf
+
+    from postcapture.studies.montecarlo import run_campaign
+
+    with _tf.TemporaryDirectory(prefix="postcapture_bench_") as tmp:
+        t0 = time.perf_counter()
+        run_campaign(load_scenario(scenario_name), runs=runs, dispersed=True, cases=("dual", "joint"), workers=workers,
+                     out=tmp, fresh=True, crlb=False)
+        return time.perf_counter() - t0
+
+
 def run_benchmark(
     scenario_name: str = "envisat",
     duration: float = 300.0,
@@ -114,6 +149,7 @@ def run_benchmark(
     repeats: int = 3,
     main_job: bool = True,
     progress: Callable[[str], None] | None = None,
+    campaign: bool = False,
 ) -> dict:
     """Measure the compiled plant on the default scenario (keys of ``postcapture bench --json``).
 
@@ -122,7 +158,10 @@ def run_benchmark(
     the choice included), every output recorded; ``rtf_n5_1arcsec``: the same at N = 5 with a 1 arcsec
     attitude tolerance; ``predict_ms_n5``, ``predict_ms_n50``: one 0.1 s SDIRK3 prediction with every Jacobian
     (state, inputs, parameters, measurement); ``predict_ms_n5_filters``: the same with the filters' own
-    settings (``[estimation] integrator``, ``model_step``); ``compile_s``: compiling the core from scratch;
+    settings (``[estimation] integrator``, ``model_step``); ``filter_rtf_dual_n5``, ``filter_rtf_joint_n5``:
+    simulated seconds per CPU second of one case over ``duration`` (reference profile, the engine's filters,
+    :func:`_filter_rtf`); ``campaign50_s`` (with ``campaign``): wall seconds of a 50-run dispersed campaign of
+    both (:func:`campaign_time`); ``compile_s``: compiling the core from scratch;
     ``main_job_s``: wall time of the default main job over ``duration`` with a warm cache; the chosen steps, the
     degrees of freedom and the machine.
     """
@@ -154,6 +193,12 @@ def run_benchmark(
     say("the filters' prediction with every Jacobian, N = 5")
     out["predict_ms_n5_filters"] = _predict_ms(scenario, 5, integrator=est.integrator, step=est.model_step,
                                                dt=est.filter_step)
+    for case in ("dual", "joint"):
+        say(f"the {case} estimator over {duration:g} s, N = 5")
+        out[f"filter_rtf_{case}_n5"] = _filter_rtf(scenario, case, duration)
+    if campaign:
+        say("a 50-run dispersed campaign of dual and joint")
+        out["campaign50_s"] = campaign_time(scenario_name)
     if main_job:
         from postcapture.studies.main_job import run_main_job
 

@@ -6,7 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from postcapture.core.log_cholesky import dpi_dtheta, pi_from_theta, pseudo_inertia, theta_from_pi
+from postcapture.core.log_cholesky import pseudo_inertia, theta_from_pi
+from postcapture.estimation.parameters import dpi_dtheta, pi_from_theta
 
 thetas = st.lists(st.floats(-3.0, 3.0), min_size=10, max_size=10).map(np.array)
 

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from postcapture.core import kalman
+from postcapture.estimation import kernels as kalman
 from postcapture.core.errors import CovarianceError, DimensionError
 
 

@@ -1,0 +1,169 @@
+"""The estimator FMU: one doStep is one filter cycle of the native scheme, bad calls are refused.
+
+The FMU is exported for a short copy of ``envisat`` whose filters need no derivation (model noise given, the
+truth's panels the filters'), so that the export takes seconds; it is driven through fmpy's low-level API
+on the same recorded sensors as the native case.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+pytest.importorskip("fmpy")
+
+from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi1 import FMICallException  # noqa: E402
+from fmpy.fmi2 import FMU2Slave  # noqa: E402
+
+from postcapture.config import load_scenario  # noqa: E402
+from postcapture.config.estimation import FilterTuning  # noqa: E402
+
+DURATION = 6.0
+
+
+def _scenario():
+    sc = load_scenario("envisat")
+    unc = sc.uncertainty.model_copy(update={"truth_panel_segments": None})
+    given = sc.estimation.tuning.get("reference")
+    ref = FilterTuning(model_noise=1.08e-9) if given is None else given.model_copy(update={"model_noise": 1.08e-9})
+    tuning = {**sc.estimation.tuning, "reference": ref}
+    est = sc.estimation.model_copy(update={"tuning": tuning})
+    sim = sc.simulation.model_copy(update={"duration": DURATION})
+    return sc.model_copy(update={"uncertainty": unc, "estimation": est, "simulation": sim})
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    from postcapture.studies.estimator_fmu import export_estimator_fmu
+    from postcapture.studies.main_job import draw_sensors, simulate_truth
+    from postcapture.studies.robust import with_model_noise
+    from postcapture.studies.setup import plan_run
+
+    sc = _scenario()
+    folder = tmp_path_factory.mktemp("estimator")
+    fmus = {case: export_estimator_fmu(sc, folder / f"{case}.fmu", case=case).path for case in ("joint", "dual")}
+    plan = with_model_noise(plan_run(sc, profile="reference", cases=("dual", "joint")))
+    traj = simulate_truth(plan)
+    sensors, dq0 = draw_sensors(plan, traj, plan.seed)
+    return sc, plan, sensors, traj["q_BN"][:, 0], dq0, fmus
+
+
+class Driver:
+    """One instance of an estimator FMU through fmpy's FMU2Slave, with named variables."""
+
+    def __init__(self, path, q0=None):
+        self.md = read_model_description(str(path))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=extract(str(path)),
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="estimator")
+        self.fmu.instantiate()
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        if q0 is not None:
+            self.set({f"q0_BN_{a}": v for a, v in zip("wxyz", q0)})
+        self.fmu.exitInitializationMode()
+
+    def set(self, values: dict) -> None:
+        self.fmu.setReal([self.vr[k] for k in values], [float(v) for v in values.values()])
+
+    def get(self, *names) -> np.ndarray:
+        return np.array(self.fmu.getReal([self.vr[n] for n in names]))
+
+    def inputs(self, star, gyro, accel, enc) -> None:
+        values = {}
+        for prefix, names, sample in (("star_q_", "wxyz", star), ("gyro_", "xyz", gyro), ("accel_", "xyz", accel)):
+            values.update({prefix + a: v for a, v in zip(names, np.nan_to_num(sample))})
+        values.update({f"encoder_{i + 1}": v for i, v in enumerate(np.nan_to_num(enc))})
+        values.update(star_valid=np.all(np.isfinite(star)), gyro_valid=np.all(np.isfinite(gyro)),
+                      accel_valid=np.all(np.isfinite(accel)), encoders_valid=np.all(np.isfinite(enc)))
+        self.set(values)
+
+
+def _grids(sensors, t_grid):
+    from postcapture.estimation.dual import on_grid
+
+    return (on_grid(sensors.star, t_grid), on_grid(sensors.gyro, t_grid), on_grid(sensors.accel, t_grid),
+            on_grid(sensors.joints, t_grid))
+
+
+@pytest.mark.parametrize("case", ["joint", "dual"])
+def test_the_estimator_fmu_reproduces_the_native_case(setup, case):
+    from postcapture.core import rotations as rot
+    from postcapture.studies.main_job import run_case
+
+    sc, plan, sensors, q_true0, dq0, fmus = setup
+    native = run_case(plan, case, sensors, q_true0, dq0)
+    drv = Driver(fmus[case], q0=rot.box_plus(q_true0, dq0))
+    star, gyro, accel, enc = _grids(sensors, plan.t_grid)
+    names = ("target_mass", "target_mass_sigma", "q_BN_w", "q_BN_x", "q_BN_y", "q_BN_z", "attitude_sigma_x",
+             "attitude_sigma_y", "attitude_sigma_z")
+    hist = [drv.get(*names)]
+    dt = plan.t_grid[1] - plan.t_grid[0]
+    for k in range(plan.t_grid.size - 1):
+        drv.inputs(star[:, k + 1], gyro[:, k], accel[:, k], enc[:, k + 1])
+        drv.fmu.doStep(currentCommunicationPoint=plan.t_grid[k], communicationStepSize=dt)
+        hist.append(drv.get(*names))
+    hist = np.array(hist).T
+    sigma = np.sqrt(np.einsum("iik->ik", native.attitude.P)[:3])
+    for got, want, what in ((hist[0], native.mass, "mass"), (hist[1], native.mass_sigma, "mass sigma"),
+                            (hist[2:6], native.attitude.q_BN, "attitude"), (hist[6:9], sigma, "attitude sigma")):
+        assert np.max(np.abs(got - want)) <= 1e-9 * np.max(np.abs(want)), what
+    assert drv.get("recoveries", "diverged", "n_missing", "n_outliers").tolist() == [0, 0, 0, 0]
+
+
+def test_bad_calls_are_refused_or_counted(setup):
+    sc, plan, sensors, q_true0, dq0, fmus = setup
+    drv = Driver(fmus["joint"])
+    star, gyro, accel, enc = _grids(sensors, plan.t_grid)
+    dt = plan.t_grid[1] - plan.t_grid[0]
+    with pytest.raises(FMICallException):  # a step other than the filter's period
+        drv.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.5 * dt)
+    # a NaN gyro and an infinite accelerometer component: missing and counted, never propagated
+    g = gyro[:, 0].copy()
+    g[1] = np.nan
+    drv.inputs(star[:, 1], gyro[:, 0], accel[:, 0], enc[:, 1])
+    drv.set({"gyro_y": np.nan, "accel_x": np.inf})
+    drv.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=dt)
+    assert drv.get("n_missing")[0] == 2
+    # a star-tracker quaternion of norm 1.1: an outlier
+    drv.inputs(1.1 * star[:, 2], gyro[:, 1], accel[:, 1], enc[:, 2])
+    drv.fmu.doStep(currentCommunicationPoint=dt, communicationStepSize=dt)
+    assert drv.get("n_outliers")[0] == 1
+    out = drv.get("target_mass", "q_BN_w", "q_BN_x", "attitude_sigma_x", "nis_star")
+    assert np.all(np.isfinite(out[:4])) and out[4] == -1.0  # no star-tracker update: no NIS
+    # states with a zero, non-unit or NaN quaternion and covariance are refused
+    state = drv.fmu.getFMUstate()
+    raw = bytearray(drv.fmu.serializeFMUstate(state))
+    header = 24  # magic, size, mode, last good time
+    data = np.frombuffer(bytes(raw[header:]), dtype=np.float64).copy()
+    for bad in (np.zeros_like(data), 2.0 * data, np.full_like(data, np.nan)):
+        with pytest.raises(FMICallException):
+            drv.fmu.deSerializeFMUstate(bytes(raw[:header]) + bad.tobytes())
+    good = drv.fmu.deSerializeFMUstate(bytes(raw))
+    drv.fmu.setFMUstate(good)
+    drv.fmu.freeFMUstate(state)
+
+
+def test_the_estimator_fmu_validates(setup):
+    from fmpy.validation import validate_fmu
+
+    for path in setup[-1].values():
+        assert validate_fmu(str(path)) == []
+
+
+@pytest.mark.skipif(shutil.which("fmuCheck") is None and not shutil.os.path.exists("/work/tools/bin/fmuCheck"),
+                    reason="the FMI Compliance Checker is not installed (it is built from source, not on CI)")
+def test_the_compliance_checker_finds_no_error(setup, tmp_path):
+    exe = shutil.which("fmuCheck") or "/work/tools/bin/fmuCheck"
+    proc = subprocess.run([exe, "-h", "0.1", "-s", str(DURATION), "-l", "3", "-o", str(tmp_path / "out.csv"),
+                           "-e", str(tmp_path / "log.txt"), "-t", str(tmp_path), str(setup[-1]["joint"])],
+                          capture_output=True, text=True, timeout=300)
+    log = (tmp_path / "log.txt").read_text()
+    assert proc.returncode == 0, log[-2000:]
+    assert re.search(r"Checker reported:\s*\d+ Warning\(s\)\s*0 Error\(s\)", log), log[-2000:]
+    assert re.search(r"FMU reported:\s*0 warning\(s\) and error\(s\)", log), log[-2000:]
