@@ -168,6 +168,8 @@ _FILTER_CALLS = {
     "pc_aug_sizes": [_H, _I],
     "pc_aug_measure": [_H, _INT, _D, _D],
     "pc_aug_parameters": [_H, _D, _OD],
+    "pc_aug_plant_params": [_H, _OD, _OD],
+    "pc_aug_predict_given": [_H, _DBL, _DBL, _D, _D, _D],
 }
 # calls that return nothing or a value
 _FILTER_PLAIN = {
@@ -180,6 +182,9 @@ _FILTER_PLAIN = {
     "pc_filter_message": (ctypes.c_char_p, [_H]),
     "pc_filter_state": (ctypes.POINTER(ctypes.c_double), [_H, ctypes.POINTER(_SZ)]),
     "pc_filter_destroy": (None, [_H]),
+    "pc_aug_create_external": (_H, [_INT, _INT, _INT, ctypes.POINTER(AugConfigStruct), _D, _D, _D, _D, _POL,
+                                    ctypes.c_char_p, _SZ]),
+    "pc_aug_plant_failed": (None, [_H, _DBL, _INT, ctypes.c_char_p]),
     "pc_aug_reopen": (None, [_H, _INT, _DBL]),
     "pc_aug_apply": (None, [_H, _D]),
     "pc_mekf_transition": (None, [_D, _DBL, _D]),

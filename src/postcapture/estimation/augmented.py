@@ -25,10 +25,18 @@ Measurements: the star tracker (``H = I`` on the attitude), the gyro's mean rate
 calibration), the accelerometer's mean specific force at its position in B (reads its bias) and the arm's
 encoders (``H = I`` on the joint angles).
 
-The filter runs in the compiled engine (``pc_augmented.c``) over its plant copy's own instance there
-(``pc_model_t`` shared, ``pc_data_t`` its own): prediction, measurement models, update, recovery. This
-class sets it up (the labels, the initial state and covariance from the prior) and exposes its state; the
-plant copy must be a native process model (one with ``engine_handles``).
+The filter runs in the compiled engine (``pc_augmented.c``): prediction, measurement models, update,
+recovery. Over a native process model (one with ``engine_handles``) it steps its plant copy's own instance
+there (``pc_model_t`` shared, ``pc_data_t`` its own). Over any other process model (an FMU) the engine's
+filter has no plant: each prediction sets the model's parameters to the engine's ``p(eta)``, asks the model
+for its step with ``F = d x1 / d x`` and ``G = d x1 / d p`` (``predict(..., jacobians=True)``) and hands
+them to the engine, which runs the same propagation as over its own instance. The model must then have
+the native state's layout (a free-flyer root, quaternion x y z w at ``x[3:7]``, then Euclidean joints and
+the velocities) and parameter inputs (``param_names``, ``params``, ``set_params``). Either way a step the
+plant cannot take is a divergence (re-initialised, tried again) and a second failure raises.
+
+This class sets the filter up (the labels, the initial state and covariance from the prior) and exposes its
+state; the filter equations are the engine's only.
 """
 
 from __future__ import annotations
@@ -40,6 +48,7 @@ import numpy as np
 
 from postcapture.core import kalman
 from postcapture.core import rotations as rot
+from postcapture.core.errors import DomainError, FMIError, SimulationError
 from postcapture.core.triad import CALIBRATION_LABELS
 from postcapture.dynamics import engine as _engine
 from postcapture.estimation.filter import FilterBase, Measurement, RecoveryPolicy, state_view
@@ -115,13 +124,57 @@ class AugmentedSetup:
     n_consider: int
 
 
+_PLANT_FAILURES = (SimulationError, DomainError, FMIError)
+"""What a plant stepping outside the engine raises for a step it cannot take (or parameters it refuses)."""
+
+
+def _check_layout(model, name: str) -> None:
+    """Refuse a model whose state is not laid out as the engine's filter reads it (the native plant's:
+    ``x = [q (nq), v (nv)]``, a free flyer's position and quaternion x y z w in ``q[:7]``, the tangent
+    ``[dq (nv), dv (nv)]``) or that gives no parameter inputs."""
+    missing = [a for a in ("param_names", "params", "set_params") if not hasattr(model, a)]
+    if missing or not getattr(model, "param_names", ()):
+        raise TypeError(f"{name}: the augmented EKF estimates the plant's parameters; {type(model).__name__} gives "
+                        f"no parameter inputs ({', '.join(missing) or 'param_names is empty'})")
+    n, nx = int(model.n), int(model.nx)
+    nv = n // 2
+    nq = nx - nv
+    problems = []
+    if n % 2 or nq != nv + 1 or nv < 6:
+        problems.append(f"sizes nx = {nx}, n = {n} (expected nx = 2 nv + 1, n = 2 nv, nv >= 6)")
+    else:
+        want = {"tangent_attitude": slice(3, 6), "tangent_velocity": slice(nv, nv + 3),
+                "tangent_rate": slice(nv + 3, nv + 6)}
+        problems += [f"{k} = {getattr(model, k, None)} (expected {v})" for k, v in want.items()
+                     if getattr(model, k, None) != v]
+        probe = 1.0 + np.arange(nx, dtype=float)  # distinct entries: which the model's readers pick
+        arm = np.asarray(() if model.tangent_arm is None else model.tangent_arm, dtype=int) + (nq - nv)
+        reads = {"attitude": (model.attitude, probe[[6, 3, 4, 5]]), "chaser_velocity": (model.chaser_velocity,
+                 probe[nq:nq + 3]), "body_rate": (model.body_rate, probe[nq + 3:nq + 6])}
+        if arm.size:
+            reads["arm_angles"] = (model.arm_angles, probe[arm])
+        for k, (read, native) in reads.items():
+            try:
+                same = np.array_equal(np.asarray(read(probe), dtype=float), native)
+            except Exception as exc:  # a reader that cannot read it is a layout problem too
+                problems.append(f"{k}: {exc}")
+                continue
+            if not same:
+                problems.append(f"{k} does not read the native entries")
+    if problems:
+        raise TypeError(f"{name}: the augmented EKF reads the native plant's state layout (a free-flyer root, its "
+                        f"quaternion x y z w at x[3:7], then the joints and the velocities); {type(model).__name__} "
+                        f"{getattr(model, 'name', '')}: " + "; ".join(problems))
+
+
 class AugmentedEKF(FilterBase):
     """See the module docstring.
 
     Parameters
     ----------
     model : ProcessModel
-        The filter's own plant copy (with ``param_names``, ``params``, ``set_params``, ``engine_handles``).
+        The filter's own plant copy (with ``param_names``, ``params``, ``set_params``): a native one (with
+        ``engine_handles``) or any other with the native state's layout (see the module docstring).
     x0 : ndarray (nx,)
         Initial plant state, for the nominal parameters ``model.params``.
     params : ParameterMap
@@ -146,10 +199,10 @@ class AugmentedEKF(FilterBase):
     def __init__(self, model, x0, *, params: ParameterMap, n_consider: int, eta0, P_eta, S0, tuning: AugmentedTuning,
                  q0_BN=None, name: str = "joint"):
         self._init_base(name, tuning.recovery, tuning.gate_probability)
-        if not hasattr(model, "engine_handles"):
-            raise TypeError(f"{name}: the augmented EKF runs in the compiled engine over a native plant copy; "
-                            f"{type(model).__name__} has no engine instance")
         self.model = model
+        self._outside = not hasattr(model, "engine_handles")  # the model steps in Python (an FMU), not the engine
+        if self._outside:
+            _check_layout(model, name)
         self.tuning = tuning
         self.params = params
         self._layout(n_consider)
@@ -228,14 +281,18 @@ class AugmentedEKF(FilterBase):
         p_nom = np.ascontiguousarray(self.params.p_nominal, dtype=float)
         ip, dp = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
         cfg = _engine.AugConfigStruct(arm_v.size, ncal, n_consider, int(full), spec.size, arm_v.ctypes.data_as(ip),
-                                      spec.ctypes.data_as(ip), p_nom.ctypes.data_as(dp), float(model.step),
+                                      spec.ctypes.data_as(ip), p_nom.ctypes.data_as(dp),
+                                      float(getattr(model, "step", 0.0)),
                                       (ctypes.c_double * 3)(*self.r_accel), tun.sigma_gyro_bias_walk,
                                       tun.sigma_accel_bias_walk, float(tun.mean_motion))
-        m_handle, d_handle = model.engine_handles()
         err = ctypes.create_string_buffer(512)
-        handle = self._eng.aug_create(m_handle, d_handle, ctypes.byref(cfg), np.ascontiguousarray(x),
-                                      np.ascontiguousarray(eta), np.ascontiguousarray(P), q_noise,
-                                      ctypes.byref(self._policy(max(3, arm_v.size))), err, len(err))
+        args = (ctypes.byref(cfg), np.ascontiguousarray(x), np.ascontiguousarray(eta), np.ascontiguousarray(P),
+                q_noise, ctypes.byref(self._policy(max(3, arm_v.size))), err, len(err))
+        if self._outside:
+            nv = self.n // 2
+            handle = self._eng.aug_create_external(x.size - nv, nv, p_nom.size, *args)
+        else:
+            handle = self._eng.aug_create(*model.engine_handles(), *args)
         if not handle:
             raise ValueError(f"{self.name}: {err.value.decode(errors='replace')}")
         self._attach(handle)
@@ -299,12 +356,49 @@ class AugmentedEKF(FilterBase):
         """Advance from ``t`` to ``t + dt`` (the known inputs are the model's own schedule; ``u`` is unused).
 
         A plant copy that cannot take the step is a divergence (re-initialised, tried again); a second
-        failure raises the engine's :class:`~postcapture.core.errors.SimulationError`.
+        failure raises a :class:`~postcapture.core.errors.SimulationError` (the engine's, or the model's
+        :class:`~postcapture.core.errors.DomainError` for parameters it refuses).
         """
         try:
-            self._eng.aug_predict(self._handle, float(t), float(dt))
+            if self._outside:
+                self._predict_outside(float(t), float(dt))
+            else:
+                self._eng.aug_predict(self._handle, float(t), float(dt))
         finally:
             self._sync()
+
+    def _step_outside(self, t: float, dt: float):
+        """The model's step from the filter's state with the engine's ``p(eta)``: ``x1``, ``F``, ``G`` (contiguous)."""
+        model, h = self.model, self._handle
+        p = np.zeros(self.params.p_nominal.size)
+        self._eng.aug_plant_params(h, p, None)
+        model.set_params(p)
+        pred = model.predict(self._x.copy(), t, dt, jacobians=True)
+        if pred.G is None:
+            raise SimulationError(f"{self.name}: {model.name} gave no parameter Jacobian G = d x1 / d p")
+        return tuple(np.ascontiguousarray(a, dtype=float) for a in (pred.x, pred.F, pred.G))
+
+    def _predict_outside(self, t: float, dt: float) -> None:
+        """:meth:`predict` over a model that steps outside the engine: the engine's failure model (a failed step
+        diverges and re-initialises, the step is tried again with the prior's parameters, a second failure
+        raises), then the engine's propagation with the given step."""
+        try:
+            x1, F, G = self._step_outside(t, dt)
+        except _PLANT_FAILURES as exc:
+            text = f"{type(exc).__name__}: {exc}".encode(errors="replace")[: _engine.EVENT_TEXT - 1]
+            status = getattr(exc, "status", 0)
+            self._eng.aug_plant_failed(self._handle, t, status if isinstance(status, int) else 0, text)
+            try:
+                x1, F, G = self._step_outside(t, dt)
+            except (SimulationError, DomainError):
+                raise
+            except FMIError as again:  # what the schemes take for a plant copy that failed again
+                raise SimulationError(f"{self.name}: the plant copy failed again: {again}") from again
+        n, n_p = self.n, self.params.p_nominal.size
+        if x1.shape != (self._x.size,) or F.shape != (n, n) or G.shape != (n, n_p):
+            raise SimulationError(f"{self.name}: the model's step: expected x ({self._x.size},), F ({n}, {n}) and "
+                                  f"G ({n}, {n_p}), found {x1.shape}, {F.shape} and {G.shape}")
+        self._eng.aug_predict_given(self._handle, t, dt, x1, F, G)
 
     def update(self, z: Measurement):
         """Correct with a star-tracker, gyro, accelerometer or encoder measurement; returns the update result or None.

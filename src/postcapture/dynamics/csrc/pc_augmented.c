@@ -1,6 +1,7 @@
 /*
- * postcapture engine: the augmented error-state EKF over its own plant instance (estimation/augmented.py
- * states the model). Error state:
+ * postcapture engine: the augmented error-state EKF over its own plant instance, or over a plant that steps
+ * outside (pc_aug_create_external, pc_aug_predict_given: an FMU behind the Python process model) with the same
+ * equations after the step (estimation/augmented.py states the model). Error state:
  *   [ dx (n: the plant's tangent) | gyro bias (3) | accelerometer bias (3) | gyro calibration (0 or 9) |
  *     parameters estimated | parameters considered | clone of the chaser's attitude, velocity, rate (9) ].
  * Owns the prediction (the plant's step with the parameters of eta and its exact Jacobians,
@@ -77,30 +78,33 @@ static void aug_recover(void* self, int kind);
 static void aug_reinitialise(void* self);
 static void take_clone(pc_aug_t* f);
 
-static int check_config(const pc_model_t* m, const pc_aug_config_t* c, int n_eta, char* err, size_t n_err) {
+static int check_config(int free_flyer, int nv, const pc_aug_config_t* c, int n_eta, int plant, char* err,
+                        size_t n_err) {
     int i;
-    if (!m->free_flyer || m->nv < 6) return pc_model_error(err, n_err, "the augmented EKF needs a free-flyer root");
+    if (!free_flyer || nv < 6) return pc_model_error(err, n_err, "the augmented EKF needs a free-flyer root");
     if (n_eta < 0) return pc_model_error(err, n_err, "parameter map: a block does not fit the plant's parameters");
     if (c->n_cal != 0 && c->n_cal != 9) return pc_model_error(err, n_err, "gyro calibration: 0 or 9 states");
     if (c->n_consider < 0 || c->n_consider > n_eta) return pc_model_error(err, n_err, "considered coordinates");
     if (c->n_arm < 0 || c->n_arm > PC_MAX_MEAS) return pc_model_error(err, n_err, "encoders: at most 32");
     for (i = 0; i < c->n_arm; i++)
-        if (c->arm_v[i] < 6 || c->arm_v[i] >= m->nv) return pc_model_error(err, n_err, "encoder %d: no joint", i);
-    if (!(c->step > 0.0)) return pc_model_error(err, n_err, "the model step must be positive");
+        if (c->arm_v[i] < 6 || c->arm_v[i] >= nv) return pc_model_error(err, n_err, "encoder %d: no joint", i);
+    if (plant && !(c->step > 0.0)) return pc_model_error(err, n_err, "the model step must be positive");
     return PC_OK;
 }
 
-pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t* cfg, const double* x0,
-                        const double* eta0, const double* P0, const double* q_noise, const pc_policy_t* policy,
-                        char* err, size_t err_size) {
-    int n_eta = pc_parammap_size(cfg->param_spec, cfg->n_spec, m->np), n = 2 * m->nv, N, i;
+/* the filter over a plant instance (m, d), or over none (m = d = NULL: a free-flyer root with nq, nv, np, whose
+ * steps come from outside through pc_aug_predict_given) */
+static pc_aug_t* create(const pc_model_t* m, pc_data_t* d, int free_flyer, int nq, int nv, int np, int nz,
+                        const pc_aug_config_t* cfg, const double* x0, const double* eta0, const double* P0,
+                        const double* q_noise, const pc_policy_t* policy, char* err, size_t err_size) {
+    int n_eta = pc_parammap_size(cfg->param_spec, cfg->n_spec, np), n = 2 * nv, N, i;
     size_t n_state, total, nb = pc_book_doubles(policy);
     pc_aug_t* f;
-    if (check_config(m, cfg, n_eta, err, err_size)) return NULL;
+    if (check_config(free_flyer, nv, cfg, n_eta, m != NULL, err, err_size)) return NULL;
     N = n + 6 + cfg->n_cal + n_eta + 9;
-    n_state = (size_t)(m->nq + m->nv) + 6 + cfg->n_cal + n_eta + 10 + 2 + (size_t)N * N;
-    total = n_state + (size_t)N * N + n_eta + m->np + (cfg->full_noise ? (size_t)n * n : (size_t)m->nv) +
-            scratch_doubles(N, n, m->np, n_eta, m->nq, m->nv, m->nz) + nb + (size_t)cfg->n_spec + (size_t)N;
+    n_state = (size_t)(nq + nv) + 6 + cfg->n_cal + n_eta + 10 + 2 + (size_t)N * N;
+    total = n_state + (size_t)N * N + n_eta + np + (cfg->full_noise ? (size_t)n * n : (size_t)nv) +
+            scratch_doubles(N, n, np, n_eta, nq, nv, nz) + nb + (size_t)cfg->n_spec + (size_t)N;
     f = (pc_aug_t*)calloc(1, sizeof(pc_aug_t) + total * sizeof(double));
     if (!f) {
         pc_model_error(err, err_size, "out of memory");
@@ -115,10 +119,10 @@ pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t
     f->d = d;
     f->n = n;
     f->N = N;
-    f->nq = m->nq;
-    f->nv = m->nv;
-    f->nx = m->nq + m->nv;
-    f->np = m->np;
+    f->nq = nq;
+    f->nv = nv;
+    f->nx = nq + nv;
+    f->np = np;
     f->n_eta = n_eta;
     f->n_cal = cfg->n_cal;
     f->n_arm = cfg->n_arm;
@@ -134,7 +138,7 @@ pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t
     f->sg = cfg->sigma_gyro_walk;
     f->sa = cfg->sigma_accel_walk;
     f->n_orbit = cfg->mean_motion;
-    carve(f, (double*)(f + 1), m->nz);
+    carve(f, (double*)(f + 1), nz);
     f->spec = (int*)(f->book.window_bound + f->book.n_window_bound + 1);
     f->n_spec = cfg->n_spec;
     memcpy(f->spec, cfg->param_spec, (size_t)cfg->n_spec * sizeof(int));
@@ -145,12 +149,33 @@ pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t
     memcpy(f->eta_init, eta0, (size_t)n_eta * sizeof(double));
     memcpy(f->P, P0, (size_t)N * N * sizeof(double));
     memcpy(f->P_init, P0, (size_t)N * N * sizeof(double));
-    memcpy(f->p_nom, cfg->p_nominal, (size_t)m->np * sizeof(double));
-    memcpy(f->q_noise, q_noise, (cfg->full_noise ? (size_t)n * n : (size_t)m->nv) * sizeof(double));
+    memcpy(f->p_nom, cfg->p_nominal, (size_t)np * sizeof(double));
+    memcpy(f->q_noise, q_noise, (cfg->full_noise ? (size_t)n * n : (size_t)nv) * sizeof(double));
     take_clone(f);
     f->book.recover = aug_recover;
     f->book.reinitialise = aug_reinitialise;
     return f;
+}
+
+pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t* cfg, const double* x0,
+                        const double* eta0, const double* P0, const double* q_noise, const pc_policy_t* policy,
+                        char* err, size_t err_size) {
+    if (!m || !d) {
+        pc_model_error(err, err_size, "no plant instance: pc_aug_create_external takes the steps from outside");
+        return NULL;
+    }
+    return create(m, d, m->free_flyer, m->nq, m->nv, m->np, m->nz, cfg, x0, eta0, P0, q_noise, policy, err, err_size);
+}
+
+pc_aug_t* pc_aug_create_external(int nq, int nv, int np, const pc_aug_config_t* cfg, const double* x0,
+                                 const double* eta0, const double* P0, const double* q_noise,
+                                 const pc_policy_t* policy, char* err, size_t err_size) {
+    if (nv < 6 || nq != nv + 1 || np < 0) {
+        pc_model_error(err, err_size, "sizes: expected a free-flyer root with Euclidean joints (nq = nv + 1, nv >= 6, "
+                       "np >= 0), found nq = %d, nv = %d, np = %d", nq, nv, np);
+        return NULL;
+    }
+    return create(NULL, NULL, 1, nq, nv, np, 0, cfg, x0, eta0, P0, q_noise, policy, err, err_size);
 }
 
 int pc_aug_sizes(const pc_aug_t* f, int* out) {
@@ -252,9 +277,28 @@ static void add_noise(pc_aug_t* f, double dt) {
     pc_symmetrize(P, N);
 }
 
+/* after the plant's step (q1, v1, F, Fp and J in place): the clone, P <- Phi P Phi^T + Q, the state, the check */
+static int advance(pc_aug_t* f, double t, double dt) {
+    take_clone(f);
+    propagate(f);
+    add_noise(f, dt);
+    memcpy(f->x, f->q1, (size_t)f->nq * sizeof(double));
+    memcpy(f->x + f->nq, f->v1, (size_t)f->nv * sizeof(double));
+    *f->dt = dt;
+    *f->t = t + dt;
+    pc_book_check(&f->book, f->P, f->N, *f->t, 0);
+    return PC_OK;
+}
+
 int pc_aug_predict(pc_aug_t* f, double t, double dt) {
-    long k = lround(dt / f->step);
+    long k;
     int err;
+    if (!f->m) {
+        snprintf(f->book.message, sizeof f->book.message, "this filter has no plant instance: its steps come from "
+                 "outside (pc_aug_predict_given)");
+        return PC_ERR_ARG;
+    }
+    k = lround(dt / f->step);
     if (k < 1 || fabs(k * f->step - dt) > 1e-9 * (dt > 1.0 ? dt : 1.0)) {
         snprintf(f->book.message, sizeof f->book.message, "dt: expected a whole multiple of the model step %g, "
                  "found %g", f->step, dt);
@@ -266,15 +310,48 @@ int pc_aug_predict(pc_aug_t* f, double t, double dt) {
         err = plant_step(f, t, dt);
         if (err) return err;
     }
-    take_clone(f);
-    propagate(f);
-    add_noise(f, dt);
-    memcpy(f->x, f->q1, (size_t)f->nq * sizeof(double));
-    memcpy(f->x + f->nq, f->v1, (size_t)f->nv * sizeof(double));
-    *f->dt = dt;
-    *f->t = t + dt;
-    pc_book_check(&f->book, f->P, f->N, *f->t, 0);
+    return advance(f, t, dt);
+}
+
+int pc_aug_plant_params(pc_aug_t* f, double* p, double* J) {
+    pc_parammap_apply(f->spec, f->p_nom, f->np, f->eta, f->p, f->J);
+    if (p) memcpy(p, f->p, (size_t)f->np * sizeof(double));
+    if (J) memcpy(J, f->J, (size_t)f->np * f->n_eta * sizeof(double));
     return PC_OK;
+}
+
+int pc_aug_predict_given(pc_aug_t* f, double t, double dt, const double* x1, const double* F, const double* Fp) {
+    size_t i, nF = (size_t)f->n * f->n, nG = (size_t)f->n * f->np;
+    if (!(dt > 0.0) || !isfinite(dt) || !isfinite(t)) {
+        snprintf(f->book.message, sizeof f->book.message, "t, dt: expected a finite time and a step > 0, found "
+                 "t = %g, dt = %g", t, dt);
+        return PC_ERR_ARG;
+    }
+    for (i = 0; i < (size_t)f->nx; i++)
+        if (!isfinite(x1[i])) {
+            snprintf(f->book.message, sizeof f->book.message, "the given step: x1[%d] is not finite", (int)i);
+            return PC_ERR_ARG;
+        }
+    for (i = 0; i < nF; i++)
+        if (!isfinite(F[i])) {
+            snprintf(f->book.message, sizeof f->book.message, "the given step: F is not finite");
+            return PC_ERR_ARG;
+        }
+    for (i = 0; i < nG; i++)
+        if (!isfinite(Fp[i])) {
+            snprintf(f->book.message, sizeof f->book.message, "the given step: Fp is not finite");
+            return PC_ERR_ARG;
+        }
+    pc_parammap_apply(f->spec, f->p_nom, f->np, f->eta, f->p, f->J); /* J at the eta the step was taken with */
+    memcpy(f->q1, x1, (size_t)f->nq * sizeof(double));
+    memcpy(f->v1, x1 + f->nq, (size_t)f->nv * sizeof(double));
+    memcpy(f->F, F, nF * sizeof(double));
+    memcpy(f->Fp, Fp, nG * sizeof(double));
+    return advance(f, t, dt);
+}
+
+void pc_aug_plant_failed(pc_aug_t* f, double t, int status, const char* text) {
+    pc_book_diverge(&f->book, t, PC_CAUSE_PLANT, status, text);
 }
 
 /* ------------------------------------------------------------------------------------ measurements */
@@ -347,7 +424,7 @@ static int measurement_model(pc_aug_t* f, int kind, double* z, double* H) {
 static void apply(pc_aug_t* f, const double* dx) {
     int i, c = f->i_clone;
     double q[4];
-    pc_integrate(f->m, f->x, dx, f->q1);
+    pc_lie_integrate(f->nq, f->nv, 1, f->x, dx, f->q1); /* pc_integrate's: the root is a free flyer */
     memcpy(f->x, f->q1, (size_t)f->nq * sizeof(double));
     for (i = 0; i < f->nv; i++) f->x[f->nq + i] += dx[f->nv + i];
     for (i = 0; i < 3; i++) {

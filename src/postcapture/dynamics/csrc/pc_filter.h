@@ -136,7 +136,11 @@ PC_API int pc_massf_update(pc_massf_t* f, double t, int m, const double* nu, con
                            pc_update_t* res);
 PC_API void pc_sigmoid(double a, double b, double c, double x, double* theta, double* slope);
 
-/* augmented EKF (pc_augmented.c) over a plant instance (it borrows m and d for its lifetime).
+/* augmented EKF (pc_augmented.c) over a plant instance (it borrows m and d for its lifetime), or over a plant
+ * that steps outside (pc_aug_create_external: another process model, an FMU; a free-flyer root with Euclidean
+ * joints, x = [q (nq, the root's quaternion x y z w at 3), v (nv)]). Either way one set of filter equations:
+ * pc_aug_predict takes the instance's step, pc_aug_predict_given a step taken outside, then both run the same
+ * clone, propagation, noise and check.
  * state: [x (nx), gyro bias (3), accelerometer bias (3), gyro calibration (n_cal), eta (n_eta), clone: q (4),
  * v (3), w (3), dt, t, P (N x N)] */
 typedef struct pc_aug pc_aug_t;
@@ -153,8 +157,25 @@ typedef struct {
 PC_API pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t* cfg, const double* x0,
                                const double* eta0, const double* P0, const double* q_noise, const pc_policy_t* policy,
                                char* err, size_t err_size);
+/* without a plant instance: cfg->step is not used (the outside model checks its own steps) */
+PC_API pc_aug_t* pc_aug_create_external(int nq, int nv, int np, const pc_aug_config_t* cfg, const double* x0,
+                                        const double* eta0, const double* P0, const double* q_noise,
+                                        const pc_policy_t* policy, char* err, size_t err_size);
 PC_API int pc_aug_sizes(const pc_aug_t* f, int* out); /* N, n, nx, n_eta, np, n_cal */
+/* over the plant instance: its step with the parameters of eta; a failed step is a divergence (re-initialised,
+ * tried again), a second failure returns its status */
 PC_API int pc_aug_predict(pc_aug_t* f, double t, double dt);
+/* the plant's parameters for the current eta: p (np) and J = dp / deta (np x n_eta), either may be NULL; what
+ * a plant stepping outside is set to before its step */
+PC_API int pc_aug_plant_params(pc_aug_t* f, double* p, double* J);
+/* a step taken outside from the filter's x over [t, t + dt] with the parameters of pc_aug_plant_params: x1 (nx),
+ * F = d x1 / d x (n x n) and Fp = d x1 / d p (n x np), in the tangent of pc_predict (right perturbations of q,
+ * then v); PC_ERR_ARG for a non-finite value */
+PC_API int pc_aug_predict_given(pc_aug_t* f, double t, double dt, const double* x1, const double* F,
+                                const double* Fp);
+/* the plant outside could not take the step: pc_aug_predict's divergence (status and text go into its event);
+ * the caller tries again with the re-initialised parameters, and a second failure is its to report */
+PC_API void pc_aug_plant_failed(pc_aug_t* f, double t, int status, const char* text);
 PC_API int pc_aug_update(pc_aug_t* f, int kind, double t, const double* value, const double* R, pc_update_t* res);
 PC_API int pc_aug_measure(pc_aug_t* f, int kind, double* z, double* H); /* gyro, accelerometer, encoders: z, H (m x N) */
 PC_API void pc_aug_apply(pc_aug_t* f, const double* dx); /* x <- x (+) dx over the whole error state */
