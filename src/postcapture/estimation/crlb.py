@@ -94,23 +94,13 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
     dt = float(t_grid[1] - t_grid[0])
     att = model.tangent_attitude
     D = np.asarray(directions, dtype=float)
-    k = D.shape[1]
-    n_cal = 0 if calibration_priors is None else 9
-    n_t = k + 9 + n_cal  # c, gyro bias (3), accel bias (3), initial attitude (3), gyro calibration (9)
-    ib, ia, iq, ic = slice(k, k + 3), slice(k + 3, k + 6), slice(k + 6, k + 9), slice(k + 9, k + 9 + n_cal)
-    g = np.zeros(n_t)
-    g[:k] = mass_gradient
-    J = {name: np.zeros((n_t, n_t)) for name in ("star", "gyro", "accel", "joints")}
+    u = _Unknowns(D.shape[1], 0 if calibration_priors is None else 9)
+    g = np.zeros(u.n)
+    g[:u.k] = mass_gradient
+    J = {name: np.zeros((u.n, u.n)) for name in ("star", "gyro", "accel", "joints")}
     W_star = np.linalg.inv(np.asarray(R_star, dtype=float))
     R_acc = np.asarray(R_accel, dtype=float)
-    J_prior = np.zeros((n_t, n_t))
-    if prior_information is not None:
-        J_prior[:k, :k] = prior_information
-    if bias_priors is not None:
-        J_prior[ib, ib] = np.eye(3) / bias_priors[0]
-        J_prior[ia, ia] = np.eye(3) / bias_priors[1]
-    if n_cal:
-        J_prior[ic, ic] = np.diag([1.0 / calibration_priors[0]] * 3 + [1.0 / calibration_priors[1]] * 6)
+    J_prior = _prior(u, prior_information, bias_priors, calibration_priors)
     x = np.array(x0, dtype=float)
     S = np.asarray(dx0_dp, dtype=float) @ D
     history = np.full(t_grid.size, np.nan)
@@ -118,32 +108,106 @@ def mass_crlb(model, x0, dx0_dp, t_grid, *, directions, mass_gradient, R_star, s
         p = model.predict(x, t_grid[step], dt, jacobians=True)
         S1 = p.F @ S + p.G @ D
         phi = rot.box_minus(model.attitude(p.x), model.attitude(x))
-        G = np.zeros((3, n_t))
-        G[:, :k] = (rot.right_jacobian_inv(phi) @ S1[att] - rot.left_jacobian_inv(phi) @ S[att]) / dt
-        G[:, ib] = np.eye(3)
-        if n_cal:
-            G[:, ic] = calibration_sensitivity(phi / dt)
+        G = _gyro_rows(u, phi, S[att], S1[att], dt)
         J["gyro"] += G.T @ G / sigma_gyro**2
-        G = np.zeros((3, n_t))
-        G[:, :k] = S1[att]
-        G[:, iq] = np.eye(3)
+        G = _star_rows(u, S1[att])
         J["star"] += G.T @ W_star @ G
-        f, Jf = mean_specific_force(phi, model.chaser_velocity(x), model.body_rate(x), model.chaser_velocity(p.x),
-                                    model.body_rate(p.x), model.accelerometer_position, dt)
-        vel, rate = model.tangent_velocity, model.tangent_rate
-        G = np.zeros((3, n_t))
-        G[:, :k] = (Jf["att1"] @ S1[att] + Jf["v1"] @ S1[vel] + Jf["w1"] @ S1[rate]
-                    + Jf["att0"] @ S[att] + Jf["v0"] @ S[vel] + Jf["w0"] @ S[rate])
-        G[:, ia] = np.eye(3)
+        G = _accel_rows(u, model, phi, x, S, p.x, S1, dt)
         J["accel"] += G.T @ G / R_acc[0]
-        G = np.zeros((len(model.tangent_arm), n_t))
-        G[:, :k] = S1[model.tangent_arm]
+        G = _joint_rows(u, model.tangent_arm, S1)
         J["joints"] += (G.T / R_acc[3:]) @ G
         x, S = p.x, S1
         if step % 10 == 9 or step == t_grid.size - 2:
-            history[step + 1] = _bound(J_prior + sum(J.values()) + 1e-30 * np.eye(n_t), g)
+            history[step + 1] = _bound(J_prior + sum(J.values()) + 1e-30 * np.eye(u.n), g)
         if progress is not None and step % 100 == 0:
             progress((step + 1) / (t_grid.size - 1))
+    return _per_sensor(u, J_prior, J, g, history)
+
+
+@dataclass(frozen=True)
+class _Unknowns:
+    """Where each group of unknowns sits in ``theta``: ``c`` (k), gyro bias (3), accelerometer bias (3),
+    initial attitude (3), gyro calibration (n_cal: 9, or 0 when it is known)."""
+
+    k: int
+    n_cal: int
+
+    @property
+    def n(self) -> int:
+        return self.k + 9 + self.n_cal
+
+    @property
+    def gyro_bias(self) -> slice:
+        return slice(self.k, self.k + 3)
+
+    @property
+    def accel_bias(self) -> slice:
+        return slice(self.k + 3, self.k + 6)
+
+    @property
+    def attitude(self) -> slice:
+        return slice(self.k + 6, self.k + 9)
+
+    @property
+    def calibration(self) -> slice:
+        return slice(self.k + 9, self.k + 9 + self.n_cal)
+
+
+def _prior(u: _Unknowns, prior_information, bias_priors, calibration_priors) -> np.ndarray:
+    """The priors' information ``J_prior`` (n, n): zero on the unknowns without a prior."""
+    J_prior = np.zeros((u.n, u.n))
+    if prior_information is not None:
+        J_prior[:u.k, :u.k] = prior_information
+    if bias_priors is not None:
+        J_prior[u.gyro_bias, u.gyro_bias] = np.eye(3) / bias_priors[0]
+        J_prior[u.accel_bias, u.accel_bias] = np.eye(3) / bias_priors[1]
+    if u.n_cal:
+        J_prior[u.calibration, u.calibration] = np.diag([1.0 / calibration_priors[0]] * 3
+                                                        + [1.0 / calibration_priors[1]] * 6)
+    return J_prior
+
+
+def _gyro_rows(u: _Unknowns, phi, S_att, S1_att, dt: float) -> np.ndarray:
+    """Sensitivity (3, n) of the gyro's mean rate over a step of rotation ``phi``, from the attitude's
+    sensitivities at its start and end."""
+    G = np.zeros((3, u.n))
+    G[:, :u.k] = (rot.right_jacobian_inv(phi) @ S1_att - rot.left_jacobian_inv(phi) @ S_att) / dt
+    G[:, u.gyro_bias] = np.eye(3)
+    if u.n_cal:
+        G[:, u.calibration] = calibration_sensitivity(phi / dt)
+    return G
+
+
+def _star_rows(u: _Unknowns, S1_att) -> np.ndarray:
+    """Sensitivity (3, n) of a star-tracker sample, from the attitude's sensitivity at its instant."""
+    G = np.zeros((3, u.n))
+    G[:, :u.k] = S1_att
+    G[:, u.attitude] = np.eye(3)
+    return G
+
+
+def _accel_rows(u: _Unknowns, model, phi, x, S, x1, S1, dt: float) -> np.ndarray:
+    """Sensitivity (3, n) of the accelerometer's mean specific force over a step from ``x`` to ``x1``."""
+    _, Jf = mean_specific_force(phi, model.chaser_velocity(x), model.body_rate(x), model.chaser_velocity(x1),
+                                model.body_rate(x1), model.accelerometer_position, dt)
+    att, vel, rate = model.tangent_attitude, model.tangent_velocity, model.tangent_rate
+    G = np.zeros((3, u.n))
+    G[:, :u.k] = (Jf["att1"] @ S1[att] + Jf["v1"] @ S1[vel] + Jf["w1"] @ S1[rate]
+                  + Jf["att0"] @ S[att] + Jf["v0"] @ S[vel] + Jf["w0"] @ S[rate])
+    G[:, u.accel_bias] = np.eye(3)
+    return G
+
+
+def _joint_rows(u: _Unknowns, arm, S1) -> np.ndarray:
+    """Sensitivity (n_arm, n) of the encoders' readings, from the arm's tangent entries ``arm``."""
+    G = np.zeros((len(arm), u.n))
+    G[:, :u.k] = S1[arm]
+    return G
+
+
+def _per_sensor(u: _Unknowns, J_prior, J: dict, g, history) -> MassCRLB:
+    """The bounds from all sensors, from each alone and from the accelerations together."""
+    k, n_cal = u.k, u.n_cal
 
     def only(keys, nuisance):
         """Bound from some sensors, with only the nuisance parameters they observe (others would make J singular)."""

@@ -165,138 +165,200 @@ def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: flo
     t_grid = np.asarray(t_grid, dtype=float)
     n_t = t_grid.size
     dt = float(t_grid[1] - t_grid[0])
-    att = model.tangent_attitude
-    rate = model.tangent_rate
+    x = _start_state(model, x0, q0_BN)
+    S = np.zeros(model.n) if S0 is None else np.array(S0, dtype=float)
+    run = _DualRun(model, sensors, config, x, S, theta0, t_grid, dt)
+    for k in range(n_t - 1):
+        run.step(k)
+        if progress is not None and k % 50 == 0:
+            progress((k + 1) / (n_t - 1))
+    history, counts = run.finish(raise_on_divergence)
+    return DualResult(history, run.theta, run.sigma, run.mass_nis, time.perf_counter() - wall0, counts)
+
+
+def _start_state(model, x0, q0_BN) -> np.ndarray:
+    """The plant copy's initial state: ``x0``, its attitude replaced by ``q0_BN`` when given."""
     x = np.array(x0, dtype=float)
     if q0_BN is not None:
         dx = np.zeros(model.n)
-        dx[att] = rot.box_minus(np.asarray(q0_BN, dtype=float), model.attitude(x))
+        dx[model.tangent_attitude] = rot.box_minus(np.asarray(q0_BN, dtype=float), model.attitude(x))
         x = model.retract(x, dx)
-    S = np.zeros(model.n) if S0 is None else np.array(S0, dtype=float)
-    star = on_grid(sensors.star, t_grid)
-    gyro = on_grid(sensors.gyro, t_grid)
-    accel = on_grid(sensors.accel, t_grid)  # sample k: the increment over [t_k, t_k+1]
-    angles = on_grid(sensors.joints, t_grid)
-    R_z = np.diag(config.mass.R_diag)
+    return x
 
-    mass = MassFilter(config.mass, theta0, t_grid[0], t_grid[-1], name=f"{config.name}/mass")
+
+def _attitude_filter(model, config: DualConfig, x, t0: float):
+    """The attitude filter beside the plant copy, the star tracker's covariance it uses and the size of the
+    error state it reports (3: attitude; 6: attitude and gyro bias)."""
     if config.attitude == "ekf":
-        filt = AttitudeEKF(model, config.ekf, x, name=f"{config.name}/ekf")
-        R_star, m_err = config.ekf.R, 3
-    else:
-        P0 = config.mekf_P0 if config.mekf_P0 is not None else np.diag([1e-4] * 3 + [1e-10] * 3)
-        filt = MEKF(config.mekf, model.attitude(x), P0, t0=t_grid[0])
-        R_star, m_err = config.mekf.star_covariance, 6
-    q_hist = np.full((4, n_t), np.nan)
-    P_hist = np.full((m_err, m_err, n_t), np.nan)
-    nis = np.full(n_t, np.nan)
-    flags = np.zeros(n_t, dtype=np.uint8)
-    theta = np.full(n_t, np.nan)
-    sigma = np.full(n_t, np.nan)
-    mass_nis = np.full(n_t, np.nan)
-    inputs_missing = 0
-    q_hist[:, 0] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
-    P_hist[..., 0] = filt.P[:m_err, :m_err]
-    theta[0], sigma[0] = mass.theta, mass.sigma
-    last_gyro = None
-    for k in range(n_t - 1):
-        t, t1 = t_grid[k], t_grid[k + 1]
-        x_start, S_start = x.copy(), S.copy()
-        mass.predict(t, dt)
-        model.mass = mass.theta
-        if config.attitude == "ekf":
-            if config.mass_aware_q:
-                d = S[rate] * dt * mass.sigma
-                filt.extra_process_noise = np.outer(d, d)
-            filt.predict(t, dt)
-            p = filt.last_prediction
-            S = p.F @ S + p.g
-            S_pred = S.copy()
-            res = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
-            if res is not None and res.accepted:  # the copy's attitude now leans on the measurement
-                S[att] -= filt.last_gain @ S[att]
-            x = filt.x
+        return AttitudeEKF(model, config.ekf, x, name=f"{config.name}/ekf"), config.ekf.R, 3
+    P0 = config.mekf_P0 if config.mekf_P0 is not None else np.diag([1e-4] * 3 + [1e-10] * 3)
+    return MEKF(config.mekf, model.attitude(x), P0, t0=t0), config.mekf.star_covariance, 6
+
+
+class _DualRun:
+    """The dual scheme between two filter steps: the plant copy's state ``x`` and mass sensitivity ``S``,
+    both filters, the sensor records on the grid, and the histories (time last)."""
+
+    def __init__(self, model, sensors: SensorSuite, config: DualConfig, x, S, theta0: float, t_grid, dt: float):
+        self.model, self.config, self.t_grid, self.dt = model, config, t_grid, dt
+        self.att, self.rate = model.tangent_attitude, model.tangent_rate
+        self.x, self.S = x, S
+        self.star = on_grid(sensors.star, t_grid)
+        self.gyro = on_grid(sensors.gyro, t_grid)
+        self.accel = on_grid(sensors.accel, t_grid)  # sample k: the increment over [t_k, t_k+1]
+        self.angles = on_grid(sensors.joints, t_grid)
+        self.R_z = np.diag(config.mass.R_diag)
+        self.mass = MassFilter(config.mass, theta0, t_grid[0], t_grid[-1], name=f"{config.name}/mass")
+        self.filt, self.R_star, self.m_err = _attitude_filter(model, config, x, t_grid[0])
+        n_t = t_grid.size
+        self.q_hist = np.full((4, n_t), np.nan)
+        self.P_hist = np.full((self.m_err, self.m_err, n_t), np.nan)
+        self.nis = np.full(n_t, np.nan)
+        self.flags = np.zeros(n_t, dtype=np.uint8)
+        self.theta = np.full(n_t, np.nan)
+        self.sigma = np.full(n_t, np.nan)
+        self.mass_nis = np.full(n_t, np.nan)
+        self.inputs_missing = 0
+        self._record(0)
+        self.last_gyro = None
+
+    def step(self, k: int) -> None:
+        """One filter step from ``t_k`` to ``t_k+1`` (steps 1-5 of the module docstring)."""
+        t, t1 = self.t_grid[k], self.t_grid[k + 1]
+        x_start, S_start = self.x.copy(), self.S.copy()
+        self.mass.predict(t, self.dt)
+        self.model.mass = self.mass.theta
+        if self.config.attitude == "ekf":
+            p, S_pred, res = self._attitude_ekf(k, t, t1)
         else:
-            p = model.predict(x, t, dt, jacobians=True)
-            S = p.F @ S + p.g
-            S_pred = S.copy()
-            w = gyro[:, k]
-            if np.all(np.isfinite(w)):
-                last_gyro = w
-            else:
-                inputs_missing += 1
-                flags[k + 1] |= StepFlag.INPUT_MISSING
-            if last_gyro is not None:
-                filt.predict(t, dt, last_gyro)
-            res = filt.update(Measurement("star_tracker", t1, star[:, k + 1], R_star))
-            dx = np.zeros(model.n)
-            dx[att] = rot.box_minus(filt.q_BN, model.attitude(p.x))
-            S[att] = 0.0
-            w_next = gyro[:, k + 1]
-            if config.reset_rates and np.all(np.isfinite(w_next)):
-                dx[rate] = (w_next - filt.bias_B) - model.body_rate(p.x)
-                S[rate] = 0.0
-            x = model.retract(p.x, dx)
+            p, S_pred, res = self._attitude_mekf(k, t, t1)
+        self._flag_star(k + 1, res)
+        self._correct_mass(k, t1, p, x_start, S_start, S_pred)
+        self._record(k + 1)
+
+    def _attitude_ekf(self, k: int, t: float, t1: float):
+        """Steps 2-3 with the model-based EKF, whose process model is the plant copy:
+        ``(prediction, S before the correction, update result)``."""
+        filt, S = self.filt, self.S
+        if self.config.mass_aware_q:
+            d = S[self.rate] * self.dt * self.mass.sigma
+            filt.extra_process_noise = np.outer(d, d)
+        filt.predict(t, self.dt)
+        p = filt.last_prediction
+        S = p.F @ S + p.g
+        S_pred = S.copy()
+        res = filt.update(Measurement("star_tracker", t1, self.star[:, k + 1], self.R_star))
+        if res is not None and res.accepted:  # the copy's attitude now leans on the measurement
+            S[self.att] -= filt.last_gain @ S[self.att]
+        self.x, self.S = filt.x, S
+        return p, S_pred, res
+
+    def _attitude_mekf(self, k: int, t: float, t1: float):
+        """Steps 2-3 with the gyro-driven MEKF, whose attitude (and with ``reset_rates`` bias-corrected rate)
+        overwrite the plant copy's: ``(prediction, S before the overwrite, update result)``."""
+        model, filt, att, rate = self.model, self.filt, self.att, self.rate
+        p = model.predict(self.x, t, self.dt, jacobians=True)
+        S = p.F @ self.S + p.g
+        S_pred = S.copy()
+        self._hold_gyro(k)
+        if self.last_gyro is not None:
+            filt.predict(t, self.dt, self.last_gyro)
+        res = filt.update(Measurement("star_tracker", t1, self.star[:, k + 1], self.R_star))
+        dx = np.zeros(model.n)
+        dx[att] = rot.box_minus(filt.q_BN, model.attitude(p.x))
+        S[att] = 0.0
+        w_next = self.gyro[:, k + 1]
+        if self.config.reset_rates and np.all(np.isfinite(w_next)):
+            dx[rate] = (w_next - filt.bias_B) - model.body_rate(p.x)
+            S[rate] = 0.0
+        self.x, self.S = model.retract(p.x, dx), S
+        return p, S_pred, res
+
+    def _hold_gyro(self, k: int) -> None:
+        """Take the gyro sample at ``t_k``, or keep the last one when it is missing (counted and flagged)."""
+        w = self.gyro[:, k]
+        if np.all(np.isfinite(w)):
+            self.last_gyro = w
+        else:
+            self.inputs_missing += 1
+            self.flags[k + 1] |= StepFlag.INPUT_MISSING
+
+    def _flag_star(self, i: int, res) -> None:
+        """Flag what the star-tracker sample at instant ``i`` did, and keep its NIS when it was used."""
         if res is None:
-            flags[k + 1] |= StepFlag.MEASUREMENT_MISSING
+            self.flags[i] |= StepFlag.MEASUREMENT_MISSING
         elif not res.accepted:
-            flags[k + 1] |= StepFlag.REJECTED
+            self.flags[i] |= StepFlag.REJECTED
         else:
-            flags[k + 1] |= StepFlag.UPDATED
-            nis[k + 1] = res.nis
+            self.flags[i] |= StepFlag.UPDATED
+            self.nis[i] = res.nis
+
+    def _correct_mass(self, k: int, t1: float, p, x_start, S_start, S_pred) -> None:
+        """Steps 4-5: correct the mass with the step's increments and the encoders, then (``shift_state``)
+        move the plant copy onto the new mass's trajectory."""
+        model, mass, config = self.model, self.mass, self.config
         # the step's increments and the encoders, predicted by the plant copy's own step from its corrected state at
         # the start: the rotation over the step is the model's, not the difference of two attitude corrections (with
         # the reference's 0.01 rad star tracker those jumps alone move the mean specific force by about its noise),
         # and, in free space, neither depends on the absolute attitude, so the mass filter does not depend on which
         # attitude filter runs beside it
         if config.mass.sensitivity == "total":
-            z_hat, dz = device_prediction(model, x_start, p.x, dt, S_start, S_pred)
+            z_hat, dz = device_prediction(model, x_start, p.x, self.dt, S_start, S_pred)
         else:  # at a fixed state at the step's start: the mass acts through this step alone
-            z_hat, dz = device_prediction(model, x_start, p.x, dt, np.zeros(model.n), p.g)
+            z_hat, dz = device_prediction(model, x_start, p.x, self.dt, np.zeros(model.n), p.g)
         theta_before = mass.theta
-        z_meas = np.concatenate([accel[:, k], angles[:, k + 1]])
-        mres = mass.update(Measurement("accelerations", t1, z_meas - z_hat, R_z, H=dz))
+        z_meas = np.concatenate([self.accel[:, k], self.angles[:, k + 1]])
+        mres = mass.update(Measurement("accelerations", t1, z_meas - z_hat, self.R_z, H=dz))
         if mres is not None and mres.accepted:
-            mass_nis[k + 1] = mres.nis
+            self.mass_nis[k + 1] = mres.nis
             if config.shift_state and config.mass.sensitivity == "total":
-                x = model.retract(x, S * (mass.theta - theta_before))
+                self.x = model.retract(self.x, self.S * (mass.theta - theta_before))
                 if config.attitude == "ekf":
-                    filt.x = x
-        q_hist[:, k + 1] = model.attitude(x) if config.attitude == "ekf" else filt.q_BN
-        P_hist[..., k + 1] = filt.P[:m_err, :m_err]
-        theta[k + 1], sigma[k + 1] = mass.theta, mass.sigma
-        if progress is not None and k % 50 == 0:
-            progress((k + 1) / (n_t - 1))
-    events = list(filt.events) + list(mass.events)
-    diverged = sorted((e for e in events if e.kind == "diverged"), key=lambda e: e.t)
-    success, status, message = True, 0, "completed"
-    if diverged:
+                    self.filt.x = self.x
+
+    def _record(self, i: int) -> None:
+        """Record the estimates at instant ``i``."""
+        self.q_hist[:, i] = self.model.attitude(self.x) if self.config.attitude == "ekf" else self.filt.q_BN
+        self.P_hist[..., i] = self.filt.P[:self.m_err, :self.m_err]
+        self.theta[i], self.sigma[i] = self.mass.theta, self.mass.sigma
+
+    def finish(self, raise_on_divergence: bool):
+        """The run's attitude history and counts; a divergence raises, or flags ``DIVERGED`` from there on."""
+        filt, mass = self.filt, self.mass
+        events = list(filt.events) + list(mass.events)
+        success, status, message = self._outcome(events, raise_on_divergence)
+        counts = {key: filt.counts.get(key, 0) for key in ("updates", "rejected", "measurements_missing", "recoveries",
+                                                            "divergences")}
+        counts["inputs_missing"] = self.inputs_missing
+        counts["mass_updates"] = mass.counts["updates"]
+        counts["recoveries"] += mass.counts["recoveries"]
+        counts["divergences"] += mass.counts["divergences"]
+        history = EstimateHistory(
+            filter_name=self.config.name,
+            t=self.t_grid,
+            q_BN=self.q_hist,
+            P=self.P_hist,
+            nis=self.nis,
+            flags=self.flags,
+            error_labels=("dtheta_x", "dtheta_y", "dtheta_z")
+            + (("dbias_x", "dbias_y", "dbias_z") if self.m_err == 6 else ()),
+            states={"mass": self.theta[None, :], "mass_sigma": self.sigma[None, :]},
+            counts=counts,
+            success=success,
+            status=status,
+            message=message,
+            events=tuple(sorted(events, key=lambda e: e.t)),
+        )
+        return history, counts
+
+    def _outcome(self, events: list, raise_on_divergence: bool):
+        """``(success, status, message)``: the first divergence of either filter raises or flags the rest."""
+        diverged = sorted((e for e in events if e.kind == "diverged"), key=lambda e: e.t)
+        if not diverged:
+            return True, 0, "completed"
         first = diverged[0]
-        who = filt.name if first in filt.events else mass.name
+        who = self.filt.name if first in self.filt.events else self.mass.name
         if raise_on_divergence:
             raise FilterDivergenceError(who, first.t, first.cause)
-        success, status = False, -1
-        message = f"filter {who!r} diverged at t = {first.t:.6g} s: {first.cause} (re-initialised, went on)"
-        flags[int(np.searchsorted(t_grid, first.t)) :] |= np.uint8(int(StepFlag.DIVERGED))
-    counts = {key: filt.counts.get(key, 0) for key in ("updates", "rejected", "measurements_missing", "recoveries",
-                                                        "divergences")}
-    counts["inputs_missing"] = inputs_missing
-    counts["mass_updates"] = mass.counts["updates"]
-    counts["recoveries"] += mass.counts["recoveries"]
-    counts["divergences"] += mass.counts["divergences"]
-    history = EstimateHistory(
-        filter_name=config.name,
-        t=t_grid,
-        q_BN=q_hist,
-        P=P_hist,
-        nis=nis,
-        flags=flags,
-        error_labels=("dtheta_x", "dtheta_y", "dtheta_z") + (("dbias_x", "dbias_y", "dbias_z") if m_err == 6 else ()),
-        states={"mass": theta[None, :], "mass_sigma": sigma[None, :]},
-        counts=counts,
-        success=success,
-        status=status,
-        message=message,
-        events=tuple(sorted(events, key=lambda e: e.t)),
-    )
-    return DualResult(history, theta, sigma, mass_nis, time.perf_counter() - wall0, counts)
+        self.flags[int(np.searchsorted(self.t_grid, first.t)) :] |= np.uint8(int(StepFlag.DIVERGED))
+        return False, -1, f"filter {who!r} diverged at t = {first.t:.6g} s: {first.cause} (re-initialised, went on)"

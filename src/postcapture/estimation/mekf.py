@@ -312,6 +312,37 @@ def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0
     t = np.asarray(t, dtype=float)
     if t.ndim != 1 or t.size == 0 or np.any(np.diff(t) <= 0):
         raise DimensionError("`t` must be a non-empty, strictly increasing 1-D array")
+    plan = _schedule(t, gyro, star, tuning.name)
+    f = MEKF(tuning, q0_BN, P0, bias0_B=bias0_B, t0=plan.events[0], recovery=recovery)
+    f.counts["inputs_missing"] = plan.inputs_missing
+    q_hist, b_hist, P_hist, nis_hist, flags = _run_events(f, plan, tuning, t.size)
+    success, message = _outcome(f, t, plan.tol, flags, raise_on_divergence)
+    return EstimateHistory(
+        filter_name=tuning.name, t=t, q_BN=q_hist, P=P_hist, nis=nis_hist, flags=flags,
+        error_labels=ERROR_LABELS, states={"gyro_bias_B": b_hist}, counts=dict(f.counts),
+        success=success, status=0 if success else -1, message=message, events=tuple(f.events),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class _Schedule:
+    """The instants :func:`run_mekf` stops at, in time order, and what happens at each (-1: nothing)."""
+
+    events: np.ndarray  # the output, gyro and star-tracker instants merged (s)
+    tol: float  # time tolerance of the merge (s)
+    gyro_at: np.ndarray  # the gyro sample in effect from each event on
+    last_ok: np.ndarray  # per gyro sample, the last valid one at or before it (-1: none yet)
+    star_at: np.ndarray  # the star-tracker sample at each event
+    out_at: np.ndarray  # the output instant at each event
+    g_val: np.ndarray  # gyro values (3, n_g) (rad/s)
+    g_ok: np.ndarray  # gyro samples valid and finite (n_g,)
+    s_val: np.ndarray  # star-tracker values (4, n_s)
+    s_ok: np.ndarray  # star-tracker samples valid and finite (n_s,)
+    inputs_missing: int  # invalid gyro samples within the output span
+
+
+def _schedule(t: np.ndarray, gyro: SampledSignal, star: SampledSignal, name: str) -> _Schedule:
+    """Check the records against the output instants ``t`` and merge the three into one event list."""
     g_t, g_val = np.asarray(gyro.t, dtype=float), np.asarray(gyro.values, dtype=float)
     s_t, s_val = np.asarray(star.t, dtype=float), np.asarray(star.values, dtype=float)
     if g_val.shape != (3, g_t.size) or s_val.shape != (4, s_t.size):
@@ -319,7 +350,7 @@ def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0
                              f"found {g_val.shape} and {s_val.shape}")
     tol = default_tolerance(t, g_t, s_t)
     if g_t.size == 0 or g_t[0] > t[0] + tol:
-        raise TimeGridError(f"{tuning.name}: no gyro sample at or before t[0] = {t[0]:.6g} s")
+        raise TimeGridError(f"{name}: no gyro sample at or before t[0] = {t[0]:.6g} s")
     g_ok = np.asarray(gyro.valid, dtype=bool) & np.all(np.isfinite(g_val), axis=0)
     s_ok = np.asarray(star.valid, dtype=bool) & np.all(np.isfinite(s_val), axis=0)
     s_in = (s_t >= t[0] - tol) & (s_t <= t[-1] + tol)
@@ -327,52 +358,67 @@ def run_mekf(t, gyro: SampledSignal, star: SampledSignal, tuning: MEKFTuning, q0
     events, (ev_out, _, ev_star) = merge_times(t, g_t[g_in], s_t[s_in], tol=tol)
     gyro_at = np.searchsorted(g_t, events + tol, side="right") - 1  # sample in effect from each event on
     last_ok = np.maximum.accumulate(np.where(g_ok, np.arange(g_t.size), -1))
-    star_idx = np.flatnonzero(s_in)
     star_at = np.full(events.size, -1)
-    star_at[ev_star] = star_idx
+    star_at[ev_star] = np.flatnonzero(s_in)
     out_at = np.full(events.size, -1)
     out_at[ev_out] = np.arange(t.size)
+    return _Schedule(events=events, tol=tol, gyro_at=gyro_at, last_ok=last_ok, star_at=star_at, out_at=out_at,
+                     g_val=g_val, g_ok=g_ok, s_val=s_val, s_ok=s_ok,
+                     inputs_missing=int(np.count_nonzero(~g_ok[g_in])))
 
-    n = t.size
+
+def _run_events(f: MEKF, plan: _Schedule, tuning: MEKFTuning, n: int):
+    """Step the filter through every event, recording it at the ``n`` output instants:
+    ``(q (4, n), bias (3, n), P (6, 6, n), nis (n,), flags (n,))``."""
     q_hist, b_hist = np.full((4, n), np.nan), np.full((3, n), np.nan)
     P_hist, nis_hist = np.full((6, 6, n), np.nan), np.full(n, np.nan)
     flags = np.zeros(n, dtype=np.uint8)
-    f = MEKF(tuning, q0_BN, P0, bias0_B=bias0_B, t0=events[0], recovery=recovery)
-    f.counts["inputs_missing"] = int(np.count_nonzero(~g_ok[g_in]))
     pending, nis_now = StepFlag.NONE, np.nan
-    for e in range(events.size):
+    for e in range(plan.events.size):
         if e > 0:
-            k = gyro_at[e - 1]
-            if not g_ok[k]:
-                pending |= StepFlag.INPUT_MISSING
-                k = last_ok[k]
-            omega = g_val[:, k] if k >= 0 else f.bias_B  # nothing valid yet: assume zero rate
-            f.predict(events[e - 1], events[e] - events[e - 1], omega)
-        s = star_at[e]
-        if s >= 0:
-            if not s_ok[s]:
-                pending |= StepFlag.MEASUREMENT_MISSING
-                f.counts["measurements_missing"] += 1
-            else:
-                res = f.update(Measurement("star_tracker", events[e], s_val[:, s], tuning.star_covariance))
-                if res is not None:
-                    nis_now = res.nis
-                    pending |= StepFlag.UPDATED if res.accepted else StepFlag.REJECTED
-        o = out_at[e]
+            pending = _propagate(f, plan, e, pending)
+        pending, nis_now = _correct(f, plan, e, tuning, pending, nis_now)
+        o = plan.out_at[e]
         if o >= 0:
             q_hist[:, o], b_hist[:, o], P_hist[:, :, o] = f.q_BN, f.bias_B, f.P
             nis_hist[o], flags[o] = nis_now, pending
             pending, nis_now = StepFlag.NONE, np.nan
+    return q_hist, b_hist, P_hist, nis_hist, flags
+
+
+def _propagate(f: MEKF, plan: _Schedule, e: int, pending: StepFlag) -> StepFlag:
+    """Propagate from event ``e - 1`` to ``e`` with the gyro sample in effect (the last valid one if it is
+    missing); returns ``pending`` with what happened."""
+    k = plan.gyro_at[e - 1]
+    if not plan.g_ok[k]:
+        pending |= StepFlag.INPUT_MISSING
+        k = plan.last_ok[k]
+    omega = plan.g_val[:, k] if k >= 0 else f.bias_B  # nothing valid yet: assume zero rate
+    f.predict(plan.events[e - 1], plan.events[e] - plan.events[e - 1], omega)
+    return pending
+
+
+def _correct(f: MEKF, plan: _Schedule, e: int, tuning: MEKFTuning, pending: StepFlag, nis_now: float):
+    """Correct with the star-tracker sample at event ``e``, if any; returns ``(pending, nis_now)`` updated."""
+    s = plan.star_at[e]
+    if s < 0:
+        return pending, nis_now
+    if not plan.s_ok[s]:
+        f.counts["measurements_missing"] += 1
+        return pending | StepFlag.MEASUREMENT_MISSING, nis_now
+    res = f.update(Measurement("star_tracker", plan.events[e], plan.s_val[:, s], tuning.star_covariance))
+    if res is not None:
+        nis_now = res.nis
+        pending |= StepFlag.UPDATED if res.accepted else StepFlag.REJECTED
+    return pending, nis_now
+
+
+def _outcome(f: MEKF, t: np.ndarray, tol: float, flags: np.ndarray, raise_on_divergence: bool):
+    """``(success, message)`` of the run; on divergence flag ``DIVERGED`` from there on, or raise."""
     diverged = [e for e in f.events if e.kind == "diverged"]
-    success = not diverged
-    message = "completed"
-    if diverged:
-        flags[np.searchsorted(t, diverged[0].t - tol):] |= np.uint8(StepFlag.DIVERGED)
-        message = f"filter {f.name!r} diverged at t = {diverged[0].t:.6g} s: {diverged[0].cause}"
-        if raise_on_divergence:
-            raise FilterDivergenceError(f.name, diverged[0].t, diverged[0].cause)
-    return EstimateHistory(
-        filter_name=tuning.name, t=t, q_BN=q_hist, P=P_hist, nis=nis_hist, flags=flags,
-        error_labels=ERROR_LABELS, states={"gyro_bias_B": b_hist}, counts=dict(f.counts),
-        success=success, status=0 if success else -1, message=message, events=tuple(f.events),
-    )
+    if not diverged:
+        return True, "completed"
+    flags[np.searchsorted(t, diverged[0].t - tol):] |= np.uint8(StepFlag.DIVERGED)
+    if raise_on_divergence:
+        raise FilterDivergenceError(f.name, diverged[0].t, diverged[0].cause)
+    return False, f"filter {f.name!r} diverged at t = {diverged[0].t:.6g} s: {diverged[0].cause}"

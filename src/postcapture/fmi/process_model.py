@@ -110,46 +110,16 @@ class FMUProcessModel:
                 f"jacobians: expected auto or one of {sorted(JACOBIAN_METHODS)}, found {jacobians!r}"
             )
         import_fmpy()
-        from fmpy import extract
-
         self._init_args = dict(jacobians=jacobians, name=name, fd_step=fd_step, fd_mass_step=fd_mass_step,
                                instance_name=instance_name)
         self.path = Path(path)
         self.label = str(self.path)
-        md = open_model_description(self.path)
-        desc = read_description(self.path)
-        cs = desc.interface("co-simulation")
-        if cs is None or md.coSimulation is None:
-            offered = " and ".join(i.kind for i in desc.interfaces) or "no interface at all"
-            raise FMIError(
-                f"this FMU offers {offered}; a process model needs the co-simulation interface "
-                "(model exchange and FMI 3 scheduled execution are not supported)",
-                fmu=self.label,
-                function="open",
-            )
-        unrunnable = desc.binary_problem(cs)
-        if unrunnable:
-            raise FMIError(unrunnable, fmu=self.label, function="open")
+        md, cs = self._co_simulation()
         self.model_description = md
         self.mapping = load_mapping(self.path, mapping)
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         idx = {n: i for i, n in enumerate(self.mapping.state)}
-        try:
-            self.kinematics = make_kinematics(
-                self.mapping.kinematics,
-                len(self.mapping.state),
-                [idx[n] for n in self.mapping.attitude],
-                [idx[n] for n in self.mapping.rate],
-            )
-        except ValueError as exc:
-            raise FMIError(f"invalid mapping: {exc}", fmu=self.label, function="mapping") from exc
-        problems = check_mapping(self.mapping, md.modelVariables, self.label, self.kinematics.n)
-        if problems:
-            raise FMIError(
-                "the mapping does not match the FMU:\n  - " + "\n  - ".join(problems),
-                fmu=self.label,
-                function="mapping",
-            )
+        self._check_mapping(idx)
         self.name = name or md.coSimulation.modelIdentifier
         self.fd_step, self.fd_mass_step = float(fd_step), float(fd_mass_step)
         self.nx = len(self.mapping.state)
@@ -168,31 +138,73 @@ class FMUProcessModel:
             "jacobian_outputs": self.mapping.jacobians is not None,
         }
         self._requested = jacobians
+        self._instantiate(instance_name)
+        self._open_buffers()
+
+    def _co_simulation(self):
+        """The FMU's model description (FMPy's) and its co-simulation interface (ours), checked to be runnable here."""
+        md = open_model_description(self.path)
+        desc = read_description(self.path)
+        cs = desc.interface("co-simulation")
+        if cs is None or md.coSimulation is None:
+            offered = " and ".join(i.kind for i in desc.interfaces) or "no interface at all"
+            raise FMIError(
+                f"this FMU offers {offered}; a process model needs the co-simulation interface "
+                "(model exchange and FMI 3 scheduled execution are not supported)",
+                fmu=self.label,
+                function="open",
+            )
+        unrunnable = desc.binary_problem(cs)
+        if unrunnable:
+            raise FMIError(unrunnable, fmu=self.label, function="open")
+        return md, cs
+
+    def _check_mapping(self, idx: dict) -> None:
+        """The mapping's kinematics, and every variable it names checked against the FMU's."""
+        try:
+            self.kinematics = make_kinematics(
+                self.mapping.kinematics,
+                len(self.mapping.state),
+                [idx[n] for n in self.mapping.attitude],
+                [idx[n] for n in self.mapping.rate],
+            )
+        except ValueError as exc:
+            raise FMIError(f"invalid mapping: {exc}", fmu=self.label, function="mapping") from exc
+        problems = check_mapping(self.mapping, self.model_description.modelVariables, self.label, self.kinematics.n)
+        if problems:
+            raise FMIError(
+                "the mapping does not match the FMU:\n  - " + "\n  - ".join(problems),
+                fmu=self.label,
+                function="mapping",
+            )
+
+    def _instantiate(self, instance_name: str) -> None:
+        """Extract the FMU into a temporary directory and instantiate it; both go when this object does."""
+        from fmpy import extract
+
         self._tmp = tempfile.mkdtemp(prefix="postcapture_fmu_")
         box = [None]
         self._finalizer = weakref.finalize(self, _cleanup, box, self._tmp)
         self._strategy = None
         try:
             unzip = extract(str(self.path), self._tmp)
-            self.slave = RawSlave(md, str(unzip), self.label, instance_name)
+            self.slave = RawSlave(self.model_description, str(unzip), self.label, instance_name)
         except BaseException:
             self._finalizer()  # remove the extracted files at once
             raise
         box[0] = self.slave
-        extra = [self.vr[self.mapping.jacobians.request]] if self.mapping.jacobians is not None else []
-        self._in = Buffer(
-            [self.vr[n] for n in self.mapping.correction] + [self.vr[self.mapping.reset]] + extra
-        )
-        self._out = Buffer(
-            [self.vr[n] for n in self.mapping.state] + [self.vr[n] for n in self.measurement_names]
-        )
-        self._x_only = Buffer([self.vr[n] for n in self.mapping.state])
-        self._mass_buf = Buffer([self.vr[self.mapping.mass]]) if self.mapping.mass is not None else None
+
+    def _open_buffers(self) -> None:
+        """The preallocated buffers of the hot calls, and the start values read through them."""
+        vr, m = self.vr, self.mapping
+        extra = [vr[m.jacobians.request]] if m.jacobians is not None else []
+        self._in = Buffer([vr[n] for n in m.correction] + [vr[m.reset]] + extra)
+        self._out = Buffer([vr[n] for n in m.state] + [vr[n] for n in self.measurement_names])
+        self._x_only = Buffer([vr[n] for n in m.state])
+        self._mass_buf = Buffer([vr[m.mass]]) if m.mass is not None else None
         self._x0 = self.slave.get_real(self._x_only).copy()
-        self._mass = (
-            float(self.slave.get_real(self._mass_buf)[0]) if self._mass_buf is not None else float("nan")
-        )
-        self._p_buf = Buffer([self.vr[n] for n in self.mapping.parameters or ()])
+        self._mass = float(self.slave.get_real(self._mass_buf)[0]) if self._mass_buf is not None else float("nan")
+        self._p_buf = Buffer([vr[n] for n in m.parameters or ()])
         self._params = self.slave.get_real(self._p_buf).copy()
 
     def _sensor_entries(self, idx: dict) -> None:

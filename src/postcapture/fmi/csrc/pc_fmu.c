@@ -503,36 +503,62 @@ int pc_fmu_do_step(pc_fmu_t* F, const char* function, double t, double H) {
 }
 
 /* ------------------------------------------------------------------------------------ FMU state */
-/* Every reason a saved or deserialised state cannot be this FMU's: non-finite entries, a quaternion
- * that is not unit, parameters below their bounds or refused by the core, an unknown mode. */
-static int check_state(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
-    double nq = quat_norm(s->x);
+/* The index of the first of v[0..n) that is not finite (or beyond PC_MAX_ABS); -1 when all are. */
+static int first_not_finite(const double* v, int n) {
     int i;
+    for (i = 0; i < n; i++)
+        if (!(fabs(v[i]) <= PC_MAX_ABS)) return i;
+    return -1;
+}
+
+/* A state's times and flags: finite times, a known mode, a jacobian_valid of 0 or 1. */
+static int check_state_flags(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
     if (!(fabs(s->time) < PC_MAX_ABS) || !(fabs(s->last_ok_time) < PC_MAX_ABS))
         return pc_fmu_fail(F, function, "the state's time %.17g is not finite", s->time);
     if (s->mode < PC_MODE_INSTANTIATED || s->mode > PC_MODE_ERROR || (s->jac_valid != 0 && s->jac_valid != 1))
         return pc_fmu_fail(F, function, "not a state of this FMU (mode %d)", s->mode);
-    for (i = 0; i < NX; i++)
-        if (!(fabs(s->x[i]) <= PC_MAX_ABS))
-            return pc_fmu_fail(F, function, "the state's %s = %.17g: expected a finite number", vr_name(PC_VR_X + i), s->x[i]);
+    return PC_FMU_OK;
+}
+
+/* A state's x: finite entries and a unit attitude quaternion. */
+static int check_state_x(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
+    double nq = quat_norm(s->x);
+    int i = first_not_finite(s->x, NX);
+    if (i >= 0)
+        return pc_fmu_fail(F, function, "the state's %s = %.17g: expected a finite number", vr_name(PC_VR_X + i), s->x[i]);
     if (!(fabs(nq - 1.0) <= PC_QUAT_TOL))
         return pc_fmu_fail(F, function, "the state's attitude quaternion q[4..7] has norm %.17g: expected 1 within %g", nq,
                            PC_QUAT_TOL);
+    return PC_FMU_OK;
+}
+
+/* A state's parameters: finite and at least their bounds. */
+static int check_state_p_bounds(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
+    int i;
     for (i = 0; i < NP; i++)
         if (!(s->p[i] >= PC_P_MIN[i]) || !(fabs(s->p[i]) <= PC_MAX_ABS))
             return pc_fmu_fail(F, function, "the state's %s = %.17g: expected a finite number of at least %.17g",
                                vr_name(PC_VR_P + i), s->p[i], PC_P_MIN[i]);
-    for (i = 0; i < PC_NU; i++)
-        if (!(fabs(s->u[i]) <= PC_MAX_ABS))
-            return pc_fmu_fail(F, function, "the state's %s = %.17g: expected a finite number", vr_name(PC_VR_U + i), s->u[i]);
-    for (i = 0; i < NX; i++)
-        if (!(fabs(s->xc[i]) <= PC_MAX_ABS))
-            return pc_fmu_fail(F, function, "the state's %s = %.17g: expected a finite number", vr_name(PC_VR_XC + i), s->xc[i]);
+    return PC_FMU_OK;
+}
+
+/* A state's inputs, correction, reset and Jacobian request, and Jacobian outputs: all finite. */
+static int check_state_inputs(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
+    int i = first_not_finite(s->u, PC_NU);
+    if (i >= 0)
+        return pc_fmu_fail(F, function, "the state's %s = %.17g: expected a finite number", vr_name(PC_VR_U + i), s->u[i]);
+    i = first_not_finite(s->xc, NX);
+    if (i >= 0)
+        return pc_fmu_fail(F, function, "the state's %s = %.17g: expected a finite number", vr_name(PC_VR_XC + i), s->xc[i]);
     if (!(fabs(s->reset) <= PC_MAX_ABS) || !(fabs(s->jreq) <= PC_MAX_ABS))
         return pc_fmu_fail(F, function, "the state's reset or jacobian_request is not finite");
-    for (i = 0; i < NJAC; i++)
-        if (!(fabs(s->jac[i]) <= PC_MAX_ABS))
-            return pc_fmu_fail(F, function, "the state's Jacobian outputs are not finite");
+    if (first_not_finite(s->jac, NJAC) >= 0) return pc_fmu_fail(F, function, "the state's Jacobian outputs are not finite");
+    return PC_FMU_OK;
+}
+
+/* A state's parameters as the core sees them: tried, then the current ones put back (they stay until the
+ * state is applied). */
+static int check_state_core_params(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
     if (NP && pc_set_params(F->m, F->d, s->p)) {
         int code = pc_fmu_fail(F, function, "the state's parameters are refused: %s", pc_error_message(F->d));
         pc_set_params(F->m, F->d, F->c.p);
@@ -540,6 +566,15 @@ static int check_state(pc_fmu_t* F, const char* function, const pc_fmu_state_t* 
     }
     if (NP) pc_set_params(F->m, F->d, F->c.p); /* the current ones stay until the state is applied */
     return PC_FMU_OK;
+}
+
+/* Every reason a saved or deserialised state cannot be this FMU's: non-finite entries, a quaternion
+ * that is not unit, parameters below their bounds or refused by the core, an unknown mode. */
+static int check_state(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
+    if (check_state_flags(F, function, s) != PC_FMU_OK || check_state_x(F, function, s) != PC_FMU_OK ||
+        check_state_p_bounds(F, function, s) != PC_FMU_OK || check_state_inputs(F, function, s) != PC_FMU_OK)
+        return PC_FMU_ERROR;
+    return check_state_core_params(F, function, s);
 }
 
 int pc_fmu_get_state(pc_fmu_t* F, const char* function, void** state) {
