@@ -74,6 +74,8 @@ def test_a_stuck_joint_encoder_is_isolated_within_seconds_and_the_mass_stays_con
             d["text"]
         assert STUCK_AT < d["time_s"] <= min(t_20 + 1.0, STUCK_AT + 3.0), (d["text"], t_20)
         assert STUCK_AT - 0.1 <= d["onset_s"] <= d["time_s"], d["text"]
+        # the isolated channel's gated samples were processed again without it: they do not flag the model
+        assert result.summary["cases"][case]["model_inconsistent"] == [], case
         sigma = ds["mass_sigma"].sel(case=case).values
         assert sigma[-1] < 0.5 * sigma[0]
     _check_mass_inside_own_3sigma(result)

@@ -184,10 +184,10 @@ class ValidityMonitor:
     def update(self, sensor: str, t: float, nis: float, dof: int) -> ValidityFlag | None:
         """Book one update's NIS; return a new flag when the sensor has just been found inconsistent."""
         buf = self._buf.setdefault(sensor, deque(maxlen=self._n))
-        buf.append((float(nis), int(dof)))
+        buf.append((float(t), float(nis), int(dof)))
         if len(buf) < self._n:
             return None
-        total, dofs = sum(x for x, _ in buf), sum(d for _, d in buf)
+        total, dofs = sum(x for _, x, _ in buf), sum(d for _, _, d in buf)
         side = "high" if total > _upper_bound(0.5 * (1.0 - self.policy.validity_probability), dofs) else None
         if side is None:
             self._out_since.pop(sensor, None)
@@ -199,3 +199,16 @@ class ValidityMonitor:
             self.flags.append(flag)
             return flag
         return None
+
+    def rewind(self, t: float) -> None:
+        """Forget every update after ``t`` (the supervisor went back there to process them again) and the
+        flags they raised: a sample processed twice counts once, and one a re-processing isolated counts not."""
+        for sensor, buf in self._buf.items():
+            while buf and buf[-1][0] > t:
+                buf.pop()
+            if self._out_since.get(sensor, -np.inf) > t:
+                del self._out_since[sensor]
+        for f in self.flags:
+            if f.time > t:
+                self._flagged.discard(f.sensor)
+        self.flags[:] = [f for f in self.flags if f.time <= t]

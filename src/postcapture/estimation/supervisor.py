@@ -150,6 +150,7 @@ class Supervisor:
             action = "bias re-opened"
         k_onset = max(int(np.searchsorted(t_grid, alarm.onset)) - 1, 0)
         k0 = self._restore_before(k_onset)
+        self.validity.rewind(float(t_grid[k0]))
         if action == "bias re-opened":
             self._pending = (k_onset, sensor, alarm, size)  # applied when the re-processing reaches the onset
             self._reopened[key] = alarm.time
