@@ -82,6 +82,7 @@ class Supervisor:
         self.validity = ValidityMonitor(self.policy, self.dt)
         self._snaps: deque = deque(maxlen=max(int(self.policy.lookback / self.dt / 5) + 1, 2))
         self._reopened: dict = {}
+        self._mean_square: dict = {}  # sensor -> running mean of z^2 per component (``normalised`` sensors)
         self._pending = None
         for name, sig in self.sigmas.items():
             self.isolated[name] = np.zeros(len(sig), dtype=bool)
@@ -124,10 +125,22 @@ class Supervisor:
         s = np.sqrt(np.maximum(np.diag(res.S), 1e-300))
         z = np.asarray(res.innovation) / s
         flag = self.validity.update(sensor, t, res.nis, len(z))
+        if sensor in self.policy.normalised:
+            z = z / self._spread(sensor, z, channels)
         if flag is not None:
             self.flags.append((flag.time, f"{sensor} model inconsistent from {flag.since:.1f} s "
                                            f"(windowed NIS {flag.side})"))
         return [(sensor, a) for a in self.detectors[sensor].update(t, z, channels)]
+
+    def _spread(self, sensor: str, z, channels) -> np.ndarray:
+        """The running RMS of a sensor's normalised innovations (exponential, over the normalisation window),
+        between the floor and 1, for the components of this update."""
+        p = self.policy
+        ms = self._mean_square.setdefault(sensor, np.ones(len(self.sigmas[sensor])))
+        idx = np.arange(ms.size) if channels is None else np.asarray(channels, dtype=int)
+        a = min(self.dt / p.normalisation_window, 1.0)
+        ms[idx] = (1.0 - a) * ms[idx] + a * np.asarray(z, dtype=float) ** 2
+        return np.sqrt(np.clip(ms[idx], p.normalisation_floor**2, 1.0))
 
     def handle(self, sensor: str, alarm, t_grid) -> int:
         """Act on an alarm (see the module docstring); returns the step to re-process from."""
