@@ -4,7 +4,7 @@ A :class:`TruthModel` is a scenario to build the plant from (its panel discretis
 overrides of the named parameter vector (:mod:`postcapture.dynamics.parameters`) and, optionally, the
 true turn-on sensor biases. Three ways to get one:
 
-- :func:`nominal_truth`: the nominal scenario itself (the truth is the filters' model);
+- :func:`nominal_truth`: the nominal scenario itself (the filters' parameters, on the truth's own integrator and step);
 - :func:`truth_from_scenario`: another scenario file of the same structure (same arm, same panels);
 - :func:`draw_truth`: a draw from the nominal scenario's ``[uncertainty]`` priors, reproducible from
   its seed. The target's mass, centre of mass and inertia are drawn for the whole target (panels

@@ -75,7 +75,7 @@ def subtitle(ds) -> str:
     """Scenario, profile, seed, duration and the truth's source of a results dataset, for figure titles."""
     a = ds.attrs
     truth = a.get("truth_source", "nominal")
-    truth = "the nominal scenario (the filters' model)" if truth in ("nominal", "") else truth
+    truth = "the nominal scenario (the filters' parameters)" if truth in ("nominal", "") else truth
     return run_subtitle(scenario=a.get("scenario", "?"), profile=a.get("profile", "?"), seed=a.get("seed", "?"),
                         duration_s=a.get("duration_s"), plant=a.get("plant"), truth=truth)
 

@@ -70,7 +70,7 @@ def _figures(names: list[str]) -> list[str]:
 def _truth_line(summary: dict) -> str:
     truth = summary.get("truth") or {}
     source = truth.get("source", "nominal")
-    source = "the nominal scenario (the filters' own model)" if source == "nominal" else source
+    source = "the nominal scenario (the filters' parameters, on the truth's own integrator and step)" if source == "nominal" else source
     segments = truth.get("panel_segments")
     return f"Truth: {source}" + (f", panels in {', '.join(map(str, segments))} segments" if segments else "")
 
