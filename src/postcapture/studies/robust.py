@@ -270,7 +270,8 @@ _CODE_FINGERPRINT: list = []
 
 
 def _derived_path(plan: RunPlan):
-    """Where a plan's derived model error is kept: a key of the scenario, profile, grid and the package's code."""
+    """Where a plan's derived model error is kept: a key of the scenario (without its faults), profile, grid and
+    the package's code."""
     import hashlib
     from importlib import resources
 
@@ -288,7 +289,9 @@ def _derived_path(plan: RunPlan):
                 for f in sorted(csrc.iterdir(), key=lambda x: x.name):
                     h.update(f.name.encode() + f.read_bytes())
         _CODE_FINGERPRINT.append(h.hexdigest())
-    key = hashlib.sha256("|".join([plan.scenario.model_dump_json(), plan.profile_name, repr(plan.duration),
+    # the faults are left out: they act on the sensors, and the derivation reads fault-free, noise-free ones
+    fault_free = plan.scenario.model_copy(update={"faults": ()})
+    key = hashlib.sha256("|".join([fault_free.model_dump_json(), plan.profile_name, repr(plan.duration),
                                    repr(plan.initial_mass), _CODE_FINGERPRINT[0]]).encode()).hexdigest()[:24]
     return cache_dir() / "derived" / f"model_error_{key}.npz"
 
