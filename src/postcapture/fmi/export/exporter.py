@@ -253,7 +253,7 @@ def _write_sources(fmpy, sources: Path, plant, x0: np.ndarray, guid: str, s: _Se
     for name, text in source_files().items():
         (sources / name).write_text(text)
     runtime = resources.files("postcapture.fmi") / "csrc"
-    for name in (*SHARED_SOURCES, version.wrapper):
+    for name in (*SHARED_SOURCES, version.wrapper, version.wrapper_common):
         (sources / name).write_text((runtime / name).read_text())
     c_code = Path(fmpy.__file__).parent / "c-code"
     for name in version.headers:

@@ -43,6 +43,9 @@ class FMIVersion:
         ``fmiVersion`` (``"2.0"``, ``"3.0"``).
     wrapper : str
         The C file mapping that version's calls onto the shared instance.
+    wrapper_common : str
+        The header of the calls the plant's and the estimator's wrappers of that version map alike
+        (``fmi/csrc``, included by the wrapper).
     headers : tuple of str
         The standard's headers (from FMPy's ``c-code``).
     binary_folder : callable
@@ -54,14 +57,15 @@ class FMIVersion:
     number: int
     name: str
     wrapper: str
+    wrapper_common: str
     headers: tuple[str, ...]
     binary_folder: Callable[[], str]
     independent_time: bool
 
 
 VERSIONS = {
-    2: FMIVersion(2, "2.0", "pc_fmi2.c", ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
-                  _fmi2_folder, False),
-    3: FMIVersion(3, "3.0", "pc_fmi3.c", ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h"),
-                  _fmi3_folder, True),
+    2: FMIVersion(2, "2.0", "pc_fmi2.c", "pc_fmi2_common.h",
+                  ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"), _fmi2_folder, False),
+    3: FMIVersion(3, "3.0", "pc_fmi3.c", "pc_fmi3_common.h",
+                  ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h"), _fmi3_folder, True),
 }
