@@ -4,7 +4,8 @@ The reference implemented its filters inside an FMU, the predictor before ``fmiD
 after. Here one ``fmi2DoStep`` is one filter cycle (the filter period): the predictor runs inside the FMU
 with the engine's own plant and exact Jacobians, then the corrector reads the inputs set for that step.
 The FMU compiles the engine's sources (``dynamics/csrc``: the plant and the filters, the same as the native
-filters run) with ``fmi/csrc/pc_estimator.c`` (the scheme's cycle) and ``pc_est_fmi2.c`` (the interface).
+filters run) with ``fmi/csrc/pc_estimator.c`` (the scheme's cycle), ``pc_est_fmu.c`` (the FMU instance) and
+``pc_est_fmi2.c`` (the interface).
 
 What it embeds is what the native main job builds for the case (``studies.main_job``): the plan of the
 scenario and profile with its derived model noise and discretisation bias, the augmented EKF's prior
@@ -50,7 +51,7 @@ from postcapture.io import check_output_file, scratch_folder
 __all__ = ["ESTIMATOR_CASES", "EstimatorVariable", "EstimatorExport", "export_estimator_fmu", "estimator_variables"]
 
 ESTIMATOR_CASES = ("joint", "dual")
-_RUNTIME = ("pc_estimator.c", "pc_estimator.h", "pc_est_fmi2.c")
+_RUNTIME = ("pc_estimator.c", "pc_estimator.h", "pc_est_fmu.c", "pc_est_fmu.h", "pc_est_fmi2.c", "pc_fmi2_common.h")
 _FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 INPUT, PARAMETER, OUTPUT = 0, 1, 2
 
