@@ -265,18 +265,17 @@ def cmd_fmu_export(args) -> int:
 def _export_estimator(args, scenario) -> int:
     from postcapture.studies.estimator_fmu import export_estimator_fmu
 
-    if args.fmi != 2:
-        raise ScenarioError([Problem("--fmi", "2 with --estimator (FMI 3.0 is not implemented yet)", str(args.fmi))])
     with _display(args, "fmu export --estimator") as shown:
         report = export_estimator_fmu(scenario, args.output, case=args.estimator, profile=args.profile,
-                                      progress=lambda msg, *rest: shown.phase(msg))
-    info = {"fmu": str(report.path), "fmi_version": "2.0", "case": report.case, "profile": report.profile,
-            "period_s": report.period, "n_variables": len(report.variables)}
+                                      fmi_version=args.fmi, progress=lambda msg, *rest: shown.phase(msg))
+    info = {"fmu": str(report.path), "fmi_version": report.fmi_version, "case": report.case,
+            "profile": report.profile, "period_s": report.period, "n_variables": len(report.variables)}
     if args.json:
         _print_json(info)
     else:
-        _echo(f"exported {info['fmu']}: FMI 2.0 co-simulation, the {report.case} estimator ({report.profile} "
-              f"profile), one doStep per {report.period:g} s filter cycle, {info['n_variables']} variables")
+        _echo(f"exported {info['fmu']}: FMI {report.fmi_version} co-simulation, the {report.case} estimator "
+              f"({report.profile} profile), one doStep per {report.period:g} s filter cycle, "
+              f"{info['n_variables']} variables")
     return 0
 
 

@@ -269,7 +269,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = command(sub, "fmu", help="FMI: export the plant as a co-simulation FMU, inspect an FMU")
     fmu_sub = p.add_subparsers(dest="fmu_command", required=True, parser_class=_Parser)
-    c = command(fmu_sub, "export", help="build an FMI 2.0 or 3.0 co-simulation FMU (compiled C) of the scenario's plant")
+    c = command(fmu_sub, "export", help="build an FMI 2.0 or 3.0 co-simulation FMU (compiled C) of the scenario's "
+                                        "plant or, with --estimator, of a recommended estimator")
     c.add_argument("--scenario", default="envisat")
     c.add_argument("--variant", default="flexible", choices=VARIANTS)
     c.add_argument("--fmi", type=int, default=2, choices=[2, 3], help="FMI version: 2 (2.0) or 3 (3.0)")
@@ -278,7 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--no-step-jacobian", action="store_true", help="without the exact step-Jacobian outputs")
     c.add_argument("--estimator", default=None, choices=("joint", "dual"), metavar="CASE",
                    help="instead of the plant: the estimator of a recommended case (joint or dual), one doStep "
-                        "per filter cycle")
+                        "per filter cycle, in the FMI version of --fmi")
     c.add_argument("--profile", default="reference", choices=("reference", "realistic"),
                    help="with --estimator: the sensor profile whose tuning it carries")
     c.add_argument("-o", "--output", required=True, metavar="FILE.fmu")

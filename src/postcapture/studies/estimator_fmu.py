@@ -1,11 +1,12 @@
-"""``export_estimator_fmu``: a recommended estimation scheme as an FMI 2.0 co-simulation FMU.
+"""``export_estimator_fmu``: a recommended estimation scheme as an FMI 2.0 or 3.0 co-simulation FMU.
 
 The reference implemented its filters inside an FMU, the predictor before ``fmiDoStep`` and the corrector
 after. Here one ``fmi2DoStep`` is one filter cycle (the filter period): the predictor runs inside the FMU
 with the engine's own plant and exact Jacobians, then the corrector reads the inputs set for that step.
 The FMU compiles the engine's sources (``dynamics/csrc``: the plant and the filters, the same as the native
-filters run) with ``fmi/csrc/pc_estimator.c`` (the scheme's cycle), ``pc_est_fmu.c`` (the FMU instance) and
-``pc_est_fmi2.c`` (the interface).
+filters run) with ``fmi/csrc/pc_estimator.c`` (the scheme's cycle), ``pc_est_fmu.c`` (the FMU instance both
+FMI versions share) and the version's interface (``pc_est_fmi2.c`` or ``pc_est_fmi3.c``; FMI 3.0 adds the
+independent variable ``time`` after the others, :mod:`postcapture.studies.estimator_fmu3`).
 
 What it embeds is what the native main job builds for the case (``studies.main_job``): the plan of the
 scenario and profile with its derived model noise and discretisation bias, the augmented EKF's prior
@@ -51,8 +52,8 @@ from postcapture.io import check_output_file, scratch_folder
 __all__ = ["ESTIMATOR_CASES", "EstimatorVariable", "EstimatorExport", "export_estimator_fmu", "estimator_variables"]
 
 ESTIMATOR_CASES = ("joint", "dual")
-_RUNTIME = ("pc_estimator.c", "pc_estimator.h", "pc_est_fmu.c", "pc_est_fmu.h", "pc_est_fmi2.c", "pc_fmi2_common.h")
-_FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+_RUNTIME = ("pc_estimator.c", "pc_estimator.h", "pc_est_fmu.c", "pc_est_fmu.h")
+_WRAPPERS = {2: "pc_est_fmi2.c", 3: "pc_est_fmi3.c"}  # the FMI version's interface (fmi/csrc)
 INPUT, PARAMETER, OUTPUT = 0, 1, 2
 
 
@@ -92,6 +93,7 @@ class EstimatorExport:
     guid: str
     period: float
     variables: tuple
+    fmi_version: str = "2.0"
 
 
 def estimator_variables(n_arm: int, n_u: int, param_names, *, dual: bool, q0, R_star, sigmas: dict,
@@ -288,8 +290,8 @@ def _model_description(layout: _Layout, ident: str, guid: str, case: str, scenar
 
 def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, *, case: str = "joint",
                          profile: str = "reference", model_identifier: str | None = None,
-                         progress=None) -> EstimatorExport:
-    """Export a recommended estimation case of a scenario as an FMI 2.0 co-simulation FMU.
+                         progress=None, fmi_version: int = 2) -> EstimatorExport:
+    """Export a recommended estimation case of a scenario as an FMI 2.0 or 3.0 co-simulation FMU.
 
     Parameters
     ----------
@@ -304,6 +306,8 @@ def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, 
     model_identifier : str, optional
         Library name (default ``<scenario>_<case>_estimator``).
     progress : callable(str), optional
+    fmi_version : {2, 3}
+        FMI 2.0 or 3.0 co-simulation: the same filters, variables and checks.
 
     Returns
     -------
@@ -312,17 +316,21 @@ def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, 
     Raises
     ------
     ValueError
-        For a case that is not a recommended scheme.
+        For a case that is not a recommended scheme, or an FMI version other than 2 or 3.
     FMIError
         When the C compiler is missing or compilation fails.
     """
     from postcapture.config import load_scenario
     from postcapture.dynamics.compiled import source_files
-    from postcapture.fmi.export.compiler import compile_library, platform_folder, zip_fmu
+    from postcapture.fmi.export.compiler import compile_library, zip_fmu
     from postcapture.fmi.export.exporter import _identifier
+    from postcapture.fmi.export.versions import VERSIONS
 
     if case not in ESTIMATOR_CASES:
         raise ValueError(f"case: expected one of {', '.join(ESTIMATOR_CASES)}, found {case!r}")
+    if fmi_version not in _WRAPPERS:
+        raise ValueError(f"fmi_version: expected 2 or 3, found {fmi_version!r}")
+    version = VERSIONS[fmi_version]
     say = progress or (lambda msg: None)
     fmpy = import_fmpy()
     if not isinstance(scenario, Scenario):
@@ -341,7 +349,8 @@ def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, 
                                  mekf=(cfg.mekf.sigma_v, cfg.mekf.sigma_u))
     from postcapture._version import __version__
 
-    key = hashlib.sha256("|".join([scenario.model_dump_json(), case, profile, ident, __version__]).encode())
+    key = hashlib.sha256("|".join([scenario.model_dump_json(), case, profile, ident, __version__]
+                                  + ([] if fmi_version == 2 else [version.name])).encode())
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "postcapture-estimator:" + key.hexdigest())) + "}"
     with scratch_folder("postcapture_estimator_fmu") as tmp:
         root = Path(tmp) / "fmu"
@@ -352,17 +361,23 @@ def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, 
         for name, text in source_files().items():
             (src / name).write_text(text)
         runtime = resources.files("postcapture.fmi") / "csrc"
-        for name in _RUNTIME:
+        for name in (*_RUNTIME, _WRAPPERS[fmi_version], version.wrapper_common):
             (src / name).write_text((runtime / name).read_text())
         c_code = Path(fmpy.__file__).parent / "c-code"
-        for name in _FMI2_HEADERS:
+        for name in version.headers:
             shutil.copy(c_code / name, src / name)
         say("compiling the shared library")
-        folder, suffix = platform_folder()
-        compile_library(src, Path(tmp) / "build", root / "binaries" / folder / (ident + suffix), fmu=str(out_path))
+        compile_library(src, Path(tmp) / "build", root / "binaries" / version.binary_folder() / (ident + ".so"),
+                        fmu=str(out_path))
         sources = sorted(p.name for p in src.glob("*.c"))
-        (root / "modelDescription.xml").write_text(
-            _model_description(layout, ident, guid, case, scenario, plan.scenario.estimation.filter_step, sources))
+        period = plan.scenario.estimation.filter_step
+        if fmi_version == 3:
+            from postcapture.studies.estimator_fmu3 import write_description3
+
+            write_description3(root, layout, ident, guid, case, scenario, period, sources)
+        else:
+            (root / "modelDescription.xml").write_text(
+                _model_description(layout, ident, guid, case, scenario, period, sources))
         zip_fmu(root, out_path)
     return EstimatorExport(out_path, case, profile, guid, float(plan.scenario.estimation.filter_step),
-                           tuple(layout.variables))
+                           tuple(layout.variables), version.name)
