@@ -116,35 +116,45 @@ def test_the_estimator_fmu_reproduces_the_native_case(setup, case):
     assert drv.get("recoveries", "diverged", "n_missing", "n_outliers").tolist() == [0, 0, 0, 0]
 
 
-def test_bad_calls_are_refused_or_counted(setup):
-    sc, plan, sensors, q_true0, dq0, fmus = setup
-    drv = Driver(fmus["joint"])
+def missing_and_outliers(drv, plan, sensors) -> None:
+    """The first two filter cycles with bad measurements, through a driver of either FMI version: a NaN gyro
+    and an infinite accelerometer component are missing and counted, never propagated; a star-tracker
+    quaternion of norm 1.1 is an outlier."""
     star, gyro, accel, enc = _grids(sensors, plan.t_grid)
     dt = plan.t_grid[1] - plan.t_grid[0]
-    with pytest.raises(FMICallException):  # a step other than the filter's period
-        drv.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.5 * dt)
-    # a NaN gyro and an infinite accelerometer component: missing and counted, never propagated
-    g = gyro[:, 0].copy()
-    g[1] = np.nan
     drv.inputs(star[:, 1], gyro[:, 0], accel[:, 0], enc[:, 1])
     drv.set({"gyro_y": np.nan, "accel_x": np.inf})
     drv.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=dt)
     assert drv.get("n_missing")[0] == 2
-    # a star-tracker quaternion of norm 1.1: an outlier
     drv.inputs(1.1 * star[:, 2], gyro[:, 1], accel[:, 1], enc[:, 2])
     drv.fmu.doStep(currentCommunicationPoint=dt, communicationStepSize=dt)
     assert drv.get("n_outliers")[0] == 1
     out = drv.get("target_mass", "q_BN_w", "q_BN_x", "attitude_sigma_x", "nis_star")
     assert np.all(np.isfinite(out[:4])) and out[4] == -1.0  # no star-tracker update: no NIS
+
+
+def bad_states(raw: bytes) -> list[bytes]:
+    """A serialised estimator state with its data zero (quaternions and covariance), doubled (non-unit
+    quaternions) and NaN, its header kept (magic, size, mode, last good time: 24 bytes)."""
+    header = 24
+    data = np.frombuffer(raw[header:], dtype=np.float64)
+    return [raw[:header] + bad.tobytes() for bad in (np.zeros_like(data), 2.0 * data, np.full_like(data, np.nan))]
+
+
+def test_bad_calls_are_refused_or_counted(setup):
+    sc, plan, sensors, q_true0, dq0, fmus = setup
+    drv = Driver(fmus["joint"])
+    dt = plan.t_grid[1] - plan.t_grid[0]
+    with pytest.raises(FMICallException):  # a step other than the filter's period
+        drv.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.5 * dt)
+    missing_and_outliers(drv, plan, sensors)
     # states with a zero, non-unit or NaN quaternion and covariance are refused
     state = drv.fmu.getFMUstate()
-    raw = bytearray(drv.fmu.serializeFMUstate(state))
-    header = 24  # magic, size, mode, last good time
-    data = np.frombuffer(bytes(raw[header:]), dtype=np.float64).copy()
-    for bad in (np.zeros_like(data), 2.0 * data, np.full_like(data, np.nan)):
+    raw = bytes(drv.fmu.serializeFMUstate(state))
+    for bad in bad_states(raw):
         with pytest.raises(FMICallException):
-            drv.fmu.deSerializeFMUstate(bytes(raw[:header]) + bad.tobytes())
-    good = drv.fmu.deSerializeFMUstate(bytes(raw))
+            drv.fmu.deSerializeFMUstate(bad)
+    good = drv.fmu.deSerializeFMUstate(raw)
     drv.fmu.setFMUstate(good)
     drv.fmu.freeFMUstate(state)
 
