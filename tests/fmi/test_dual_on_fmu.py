@@ -43,6 +43,7 @@ def quick(envisat_dict):
     from postcapture.config import scenario_from_dict
 
     envisat_dict["estimation"]["tuning"] = {"realistic": {"model_noise": 1e-11}}
+    envisat_dict["estimation"]["jacobian"] = "every_step"  # what an FMU plant gives: each step's own
     del envisat_dict["uncertainty"]["truth_panel_segments"]
     return scenario_from_dict(envisat_dict)
 
@@ -82,6 +83,8 @@ def test_an_fmu_that_lacks_what_a_case_needs(quick, tiny_dir):
 def test_recommended_schemes_whole_run(envisat, envisat_fmu, envisat_fmu3, which):
     """The acceptance figure: the realistic profile's 300 s, final masses to 1e-6 of the native run's."""
     report = envisat_fmu3 if which == "fmi3" else envisat_fmu
+    # an FMU plant's Jacobian is its communication step's own: the native run propagates with each step's too
+    envisat = envisat.model_copy(update={"estimation": envisat.estimation.model_copy(update={"jacobian": "every_step"})})
     native = _recommended(envisat, "native", None)
     fmu = _recommended(envisat, f"fmu:{report.path}", None)
     for case in ("dual", "joint"):

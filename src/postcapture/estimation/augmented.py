@@ -82,6 +82,9 @@ class AugmentedTuning:
         (the default): the filter carries no calibration states.
     mean_motion : float
         Of the orbit whose tidal field the accelerometer's model takes out (rad/s; 0: free space).
+    frozen_jacobian : bool
+        Propagate the covariance over a filter cycle of several model steps with the first step's exact
+        Jacobian (``F1^k``; the state itself still takes every step): one step's sensitivities instead of k.
     gate_probability : float or None
     recovery : RecoveryPolicy
     """
@@ -97,6 +100,7 @@ class AugmentedTuning:
     P0_gyro_scale: float = 0.0
     P0_gyro_misalignment: float = 0.0
     mean_motion: float = 0.0
+    frozen_jacobian: bool = False
     gate_probability: float | None = 0.9999
     recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
 
@@ -284,7 +288,8 @@ class AugmentedEKF(FilterBase):
                                       spec.ctypes.data_as(ip), p_nom.ctypes.data_as(dp),
                                       float(getattr(model, "step", 0.0)),
                                       (ctypes.c_double * 3)(*self.r_accel), tun.sigma_gyro_bias_walk,
-                                      tun.sigma_accel_bias_walk, float(tun.mean_motion))
+                                      tun.sigma_accel_bias_walk, float(tun.mean_motion),
+                                      int(tun.frozen_jacobian))
         err = ctypes.create_string_buffer(512)
         args = (ctypes.byref(cfg), np.ascontiguousarray(x), np.ascontiguousarray(eta), np.ascontiguousarray(P),
                 q_noise, ctypes.byref(self._policy(max(3, arm_v.size))), err, len(err))

@@ -426,6 +426,7 @@ def build_augmented(plan: RunPlan, model, q0_BN, *, name: str,
         P0_gyro_scale=tun.gyro_scale_sigma**2,
         P0_gyro_misalignment=tun.gyro_misalignment_sigma**2,
         mean_motion=orbit_mean_motion(plan.scenario, "filters"),
+        frozen_jacobian=plan.scenario.estimation.jacobian == "first_step",
         gate_probability=tun.gate_probability,
     )
     return AugmentedEKF(model, x0, params=pmap, n_consider=pmap.size - est_map.size, eta0=eta0, P_eta=P_eta, S0=S0,
