@@ -158,9 +158,10 @@ class Estimation(Frozen):
     model_step : float
         Its step (s); ``filter_step`` must be a whole multiple of it.
     jacobian : str
-        How the recommended filters propagate their covariance over a cycle of k model steps:
-        ``"first_step"`` with the exact Jacobian of the cycle's first step taken k times (one step's
-        sensitivities; the state still takes every step), ``"every_step"`` with each step's own.
+        How the filters propagate their covariance over a cycle of k model steps: ``"first_step"`` with
+        the exact Jacobian of the cycle's first step taken k times (one step's sensitivities; the state
+        still takes every step), ``"every_step"`` with each step's own. An FMU plant (``--plant fmu:``)
+        gives its communication step's own Jacobian, as ``"every_step"``.
     seed : int
         Seed of the sensor noise and the initial attitude errors.
     sensors : table

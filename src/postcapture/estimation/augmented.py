@@ -82,9 +82,6 @@ class AugmentedTuning:
         (the default): the filter carries no calibration states.
     mean_motion : float
         Of the orbit whose tidal field the accelerometer's model takes out (rad/s; 0: free space).
-    frozen_jacobian : bool
-        Propagate the covariance over a filter cycle of several model steps with the first step's exact
-        Jacobian (``F1^k``; the state itself still takes every step): one step's sensitivities instead of k.
     gate_probability : float or None
     recovery : RecoveryPolicy
     """
@@ -100,7 +97,6 @@ class AugmentedTuning:
     P0_gyro_scale: float = 0.0
     P0_gyro_misalignment: float = 0.0
     mean_motion: float = 0.0
-    frozen_jacobian: bool = False
     gate_probability: float | None = 0.9999
     recovery: RecoveryPolicy = field(default_factory=RecoveryPolicy)
 
@@ -289,7 +285,7 @@ class AugmentedEKF(FilterBase):
                                       float(getattr(model, "step", 0.0)),
                                       (ctypes.c_double * 3)(*self.r_accel), tun.sigma_gyro_bias_walk,
                                       tun.sigma_accel_bias_walk, float(tun.mean_motion),
-                                      int(tun.frozen_jacobian))
+                                      int(getattr(model, "jacobian", "every_step") == "first_step"))
         err = ctypes.create_string_buffer(512)
         args = (ctypes.byref(cfg), np.ascontiguousarray(x), np.ascontiguousarray(eta), np.ascontiguousarray(P),
                 q_noise, ctypes.byref(self._policy(max(3, arm_v.size))), err, len(err))
