@@ -59,6 +59,8 @@ def _plan(profile: str, duration: float, *, faults=(), calibration: bool = False
         sc = sc.model_copy(update={"faults": tuple(faults)})
     if orbit:  # the filters model the orbit's gravity gradient (the accelerometer's tidal term)
         sc = sc.model_copy(update={"orbit": sc.orbit.model_copy(update={"filters": "model"})})
+    # the Python reference propagates with every model step's own Jacobian
+    sc = sc.model_copy(update={"estimation": sc.estimation.model_copy(update={"jacobian": "every_step"})})
     plan = plan_run(sc, profile=profile, cases=("dual", "joint"), duration=duration)
     changes = {"model_noise": 1.08e-9}
     if calibration:

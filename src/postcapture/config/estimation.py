@@ -157,6 +157,11 @@ class Estimation(Frozen):
         The filters' process model's integrator.
     model_step : float
         Its step (s); ``filter_step`` must be a whole multiple of it.
+    jacobian : str
+        How the filters propagate their covariance over a cycle of k model steps: ``"first_step"`` with
+        the exact Jacobian of the cycle's first step taken k times (one step's sensitivities; the state
+        still takes every step), ``"every_step"`` with each step's own. An FMU plant (``--plant fmu:``)
+        gives its communication step's own Jacobian, as ``"every_step"``.
     seed : int
         Seed of the sensor noise and the initial attitude errors.
     sensors : table
@@ -169,6 +174,7 @@ class Estimation(Frozen):
     filter_step: quantity("s", gt=0.0, le=1.0e3) = 0.1
     integrator: Literal["sdirk4", "sdirk3", "sdirk2", "rk4"] = "sdirk4"
     model_step: quantity("s", gt=0.0, le=1.0e3) = 0.025
+    jacobian: Literal["first_step", "every_step"] = "first_step"
     seed: Seed = 0
     sensors: dict[str, SensorProfileSpec] = Field(default_factory=dict)
     tuning: dict[str, FilterTuning] = Field(default_factory=dict)

@@ -229,11 +229,14 @@ class CompiledPlant:
         self._eng.step_jacobian(self._m, self._d, q1, v1, float(t), float(h), F, Fu, Fp)
         return q1, v1, F, Fu, Fp
 
-    def predict(self, q, v, t: float, h: float, n_steps: int, jacobians: bool, inputs: bool = False):
+    def predict(self, q, v, t: float, h: float, n_steps: int, jacobians: bool, inputs: bool = False,
+                frozen: bool = False):
         """``n_steps`` steps then the measurement: ``(q, v, z, F, Fu, Fp, H, Hu, Hp)``.
 
         The Jacobians are None without ``jacobians``, and ``Fu``, ``Hu`` (constant input offset) also
-        without ``inputs`` (fewer columns to carry through the stages).
+        without ``inputs`` (fewer columns to carry through the stages). With ``frozen`` the first step's
+        Jacobian stands for every step's (``F = F1^n``, ``Fp = (I + F1 + ... + F1^(n-1)) Fp1``); the state
+        still takes every step.
         """
         q1, v1 = _vec(q, self.nq, "q").copy(), _vec(v, self.nv, "v").copy()
         z = np.zeros(self.nz)
@@ -242,7 +245,8 @@ class CompiledPlant:
             nt, nz = self.nt, self.nz
             out = [np.zeros((nt, nt)), np.zeros((nt, self.nu)) if inputs else None, np.zeros((nt, self.np)),
                    np.zeros((nz, nt)), np.zeros((nz, self.nu)) if inputs else None, np.zeros((nz, self.np))]
-        self._eng.predict(self._m, self._d, q1, v1, float(t), float(h), int(n_steps), int(jacobians), z, *out)
+        want = (2 if frozen else 1) if jacobians else 0
+        self._eng.predict(self._m, self._d, q1, v1, float(t), float(h), int(n_steps), want, z, *out)
         return (q1, v1, z, *out)
 
     def simulate(self, q, v, t0: float, h: float, per_sample: int, n_samples: int, balance0=None, *,

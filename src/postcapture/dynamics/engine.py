@@ -147,7 +147,8 @@ class AugConfigStruct(ctypes.Structure):
                 ("full_noise", ctypes.c_int), ("n_spec", ctypes.c_int), ("arm_v", ctypes.POINTER(ctypes.c_int)),
                 ("param_spec", ctypes.POINTER(ctypes.c_int)), ("p_nominal", ctypes.POINTER(ctypes.c_double)),
                 ("step", ctypes.c_double), ("r_accel", ctypes.c_double * 3), ("sigma_gyro_walk", ctypes.c_double),
-                ("sigma_accel_walk", ctypes.c_double), ("mean_motion", ctypes.c_double)]
+                ("sigma_accel_walk", ctypes.c_double), ("mean_motion", ctypes.c_double),
+                ("frozen_jacobian", ctypes.c_int)]
 
 
 _U = ctypes.POINTER(UpdateStruct)

@@ -32,19 +32,26 @@ class NativeProcessModel:
         Integrator name (default ``"sdirk3"``).
     name : str
         Label for logs and results.
+    jacobian : str
+        Over a prediction of k steps: ``"every_step"`` chains each step's exact Jacobian, ``"first_step"``
+        takes the first step's k times (one step's sensitivities; the state still takes every step; see
+        ``[estimation] jacobian``).
 
     The parameters have one owner: this model's instance in the compiled core (:attr:`plant`).
     :meth:`copy` makes another instance over the same constant model, sharing nothing mutable.
     """
 
     def __init__(self, system: System, step: float, integrator: str = "sdirk3", name: str = "native", *,
-                 plant: CompiledPlant | None = None):
+                 plant: CompiledPlant | None = None, jacobian: str = "every_step"):
         from postcapture.dynamics.stability import check_step
 
         self._description = system
         self._integrator_name = integrator
         self.step = float(step)
         self.name = name
+        if jacobian not in ("every_step", "first_step"):
+            raise ValueError(f"jacobian: expected 'every_step' or 'first_step', found {jacobian!r}")
+        self.jacobian = jacobian
         self.plant = CompiledPlant(system, integrator) if plant is None else plant
         if plant is None:
             check_step(self.plant, system.assembly.q_rest, np.zeros(system.nv), self.step)
@@ -63,15 +70,15 @@ class NativeProcessModel:
     @classmethod
     def for_filters(cls, scenario, system: System | None = None, *, variant: str = "flexible", side: str = "filters",
                     name: str = "native") -> "NativeProcessModel":
-        """The filters' process model of a scenario: its ``[estimation]`` integrator and model step, the orbit's
-        gravity gradient as ``[orbit] filters`` says (``side = "truth"``: always), on ``system`` (built from
-        the scenario by default)."""
+        """The filters' process model of a scenario: its ``[estimation]`` integrator, model step and Jacobian,
+        the orbit's gravity gradient as ``[orbit] filters`` says (``side = "truth"``: always), on ``system``
+        (built from the scenario by default)."""
         from postcapture.config.schema import orbit_mean_motion
         from postcapture.dynamics.build import build_system
 
         est = scenario.estimation
         model = cls(build_system(scenario, variant) if system is None else system, est.model_step, est.integrator,
-                    name=name)
+                    name=name, jacobian=est.jacobian)
         n = orbit_mean_motion(scenario, side)
         if n:
             model.plant.set_orbit(n)
@@ -81,7 +88,7 @@ class NativeProcessModel:
         """An independent copy (own instance: parameters, Newton settings, warm start) over the same
         constant model: a filter's own plant."""
         return NativeProcessModel(self._description, self.step, self._integrator_name, self.name,
-                                  plant=self.plant.copy())  # the instance's orbit too (pc_data_copy)
+                                  plant=self.plant.copy(), jacobian=self.jacobian)  # the instance's orbit too (pc_data_copy)
 
     def engine_handles(self):
         """This model's ``(pc_model_t*, pc_data_t*)`` in the compiled engine, for a filter that runs over its
@@ -151,7 +158,8 @@ class NativeProcessModel:
         if k < 1 or abs(k * self.step - dt) > 1e-9 * max(1.0, dt):
             raise ValueError(f"dt: expected a whole multiple of the model step {self.step}, found {dt}")
         q, v = self.split(np.asarray(x, dtype=float))
-        q1, v1, z, F, _Fu, G, H, _Hu, Hp = self.plant.predict(q, v, t, self.step, k, jacobians)
+        q1, v1, z, F, _Fu, G, H, _Hu, Hp = self.plant.predict(q, v, t, self.step, k, jacobians,
+                                                              frozen=self.jacobian == "first_step")
         g = h = None
         if jacobians:
             dpdm = self._dparams_dmass(self.plant.params) if self._description.layout.has_target else np.zeros(G.shape[1])

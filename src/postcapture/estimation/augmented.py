@@ -284,7 +284,8 @@ class AugmentedEKF(FilterBase):
                                       spec.ctypes.data_as(ip), p_nom.ctypes.data_as(dp),
                                       float(getattr(model, "step", 0.0)),
                                       (ctypes.c_double * 3)(*self.r_accel), tun.sigma_gyro_bias_walk,
-                                      tun.sigma_accel_bias_walk, float(tun.mean_motion))
+                                      tun.sigma_accel_bias_walk, float(tun.mean_motion),
+                                      int(getattr(model, "jacobian", "every_step") == "first_step"))
         err = ctypes.create_string_buffer(512)
         args = (ctypes.byref(cfg), np.ascontiguousarray(x), np.ascontiguousarray(eta), np.ascontiguousarray(P),
                 q_noise, ctypes.byref(self._policy(max(3, arm_v.size))), err, len(err))

@@ -197,6 +197,7 @@ def _header(plan, model, aug, cfg, R, gate, window, layout: _Layout, guid: str, 
         f"#define PCE_MEKF_M {mekf_P0.shape[0]}", f"#define PCE_MEKF_REACQUIRE_BIAS {_num(np.deg2rad(1.0))}",
         f"#define PCE_NBIAS_T {bias.shape[1]}", f"#define PCE_NREAL {len(layout.variables)}",
         f"#define PCE_MEAN_MOTION {_num(orbit_mean_motion(plan.scenario, 'filters'))}",
+        f"#define PCE_FROZEN_JACOBIAN {int(model.jacobian == 'first_step')}",
     ]
     lines += [f"#define PCE_VR_{block} {start}" for block, start in layout.blocks.items()]
     w = window.copy()

@@ -21,7 +21,7 @@ struct pc_aug {
     pc_book_t book;
     const pc_model_t* m;
     pc_data_t* d;
-    int N, n, nx, nq, nv, np, n_eta, n_cal, n_arm, full_noise, n_spec;
+    int N, n, nx, nq, nv, np, n_eta, n_cal, n_arm, full_noise, n_spec, want_jac;
     int i_bg, i_ba, i_cal, i_eta, i_clone;
     int arm_v[PC_MAX_MEAS];
     double step, r_acc[3], sg, sa, n_orbit;
@@ -127,6 +127,7 @@ static pc_aug_t* create(const pc_model_t* m, pc_data_t* d, int free_flyer, int n
     f->n_cal = cfg->n_cal;
     f->n_arm = cfg->n_arm;
     f->full_noise = cfg->full_noise;
+    f->want_jac = cfg->frozen_jacobian ? 2 : 1;
     f->i_bg = n;
     f->i_ba = n + 3;
     f->i_cal = n + 6;
@@ -207,7 +208,7 @@ static int plant_step(pc_aug_t* f, double t, double dt) {
     }
     memcpy(f->q1, f->x, (size_t)f->nq * sizeof(double));
     memcpy(f->v1, f->x + f->nq, (size_t)f->nv * sizeof(double));
-    err = pc_predict(f->m, f->d, f->q1, f->v1, t, f->step, k, 1, f->z, f->F, NULL, f->Fp, NULL, NULL, NULL);
+    err = pc_predict(f->m, f->d, f->q1, f->v1, t, f->step, k, f->want_jac, f->z, f->F, NULL, f->Fp, NULL, NULL, NULL);
     if (err) snprintf(f->book.message, sizeof f->book.message, "pc_predict: %s", pc_error_message(f->d));
     return err;
 }

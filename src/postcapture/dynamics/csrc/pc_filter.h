@@ -153,6 +153,7 @@ typedef struct {
     double step, r_accel[3];
     double sigma_gyro_walk, sigma_accel_walk;
     double mean_motion; /* of the orbit whose tidal field the accelerometer's model takes out (0: free space) */
+    int frozen_jacobian; /* 1: the cycle's first model step's Jacobian taken for all its steps (pc_predict's 2) */
 } pc_aug_config_t;
 PC_API pc_aug_t* pc_aug_create(const pc_model_t* m, pc_data_t* d, const pc_aug_config_t* cfg, const double* x0,
                                const double* eta0, const double* P0, const double* q_noise, const pc_policy_t* policy,

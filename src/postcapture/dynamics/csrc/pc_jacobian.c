@@ -338,19 +338,24 @@ int pc_measure(const pc_model_t* m, pc_data_t* d, const double* q, const double*
 }
 
 /* ------------------------------------------------------------------------------------ prediction */
-/* F <- Fs F, Fu <- Fs Fu + Fus, Fp <- Fs Fp + Fps (T: nt x (nt + nu + np) scratch) */
+/* F <- Fs F, Fu <- Fs Fu + Fus, Fp <- Fs Fp + Fps (T: nt x (nt + nu + np) scratch), row by row: each row of
+ * the product is a sum of the rows of [F Fu Fp] weighted by one row of Fs (contiguous, vectorised) */
 static void chain(int nt, int nu, int np, const double* Fs, const double* Fus, const double* Fps, double* F, double* Fu,
                   double* Fp, double* T) {
-    int ncol = nt + nu + np, r, c, k;
-    for (r = 0; r < nt; r++)
-        for (c = 0; c < ncol; c++) {
-            double s = c < nt ? 0.0 : (c < nt + nu ? Fus[(size_t)r * nu + c - nt] : Fps[(size_t)r * np + c - nt - nu]);
-            for (k = 0; k < nt; k++) {
-                double b = c < nt ? F[(size_t)k * nt + c] : (c < nt + nu ? Fu[(size_t)k * nu + c - nt] : Fp[(size_t)k * np + c - nt - nu]);
-                s += Fs[(size_t)r * nt + k] * b;
-            }
-            T[(size_t)r * ncol + c] = s;
+    int ncol = nt + nu + np, r, k;
+    for (r = 0; r < nt; r++) {
+        double* Tr = T + (size_t)r * ncol;
+        memset(Tr, 0, (size_t)nt * sizeof(double));
+        if (nu) memcpy(Tr + nt, Fus + (size_t)r * nu, (size_t)nu * sizeof(double));
+        if (np) memcpy(Tr + nt + nu, Fps + (size_t)r * np, (size_t)np * sizeof(double));
+        for (k = 0; k < nt; k++) {
+            double a = Fs[(size_t)r * nt + k];
+            if (a == 0.0) continue;
+            axpy(Tr, F + (size_t)k * nt, a, nt);
+            if (nu) axpy(Tr + nt, Fu + (size_t)k * nu, a, nu);
+            if (np) axpy(Tr + nt + nu, Fp + (size_t)k * np, a, np);
         }
+    }
     for (r = 0; r < nt; r++) {
         memcpy(F + (size_t)r * nt, T + (size_t)r * ncol, (size_t)nt * sizeof(double));
         if (nu) memcpy(Fu + (size_t)r * nu, T + (size_t)r * ncol + nt, (size_t)nu * sizeof(double));
@@ -374,8 +379,11 @@ static int reusable_last_stage(const pc_model_t* m, pc_data_t* d, double t_end) 
     return same;
 }
 
+/* frozen: the first step's Jacobian taken for every step (F <- F1^n, Fp <- (I + F1 + ... + F1^(n-1)) Fp1):
+ * one step's sensitivities instead of n, the mean still stepped exactly */
 static int predict_jacobians(const pc_model_t* m, pc_data_t* d, double* q, double* v, double t, double h, int n_steps,
-                             double* z, double* F, double* Fu, double* Fp, double* H, double* Hu, double* Hp) {
+                             int frozen, double* z, double* F, double* Fu, double* Fp, double* H, double* Hu,
+                             double* Hp) {
     int nv = m->nv, nt = 2 * nv, nu = Fu ? m->nu : 0, np = m->np, j, err = PC_OK;
     sens_t W;
     double *Fs, *Fus, *Fps, *T;
@@ -384,11 +392,22 @@ static int predict_jacobians(const pc_model_t* m, pc_data_t* d, double* q, doubl
     if (!Fs) return PC_ERR_MEMORY;
     Fus = Fs + (size_t)nt * nt; Fps = Fus + (size_t)nt * nu; T = Fps + (size_t)nt * np;
     for (j = 0; j < n_steps && !err; j++) {
-        err = step_with_jacobian(m, d, q, v, t + j * h, h, &W, j ? Fs : F, Fu ? (j ? Fus : Fu) : NULL, j ? Fps : Fp, j > 0);
+        if (frozen && j) {
+            err = pc_step(m, d, q, v, t + j * h, h, NULL);
+        } else {
+            err = step_with_jacobian(m, d, q, v, t + j * h, h, &W, j ? Fs : F, Fu ? (j ? Fus : Fu) : NULL,
+                                     j ? Fps : Fp, j > 0);
+            if (!err && frozen) { /* keep the one-step Jacobian */
+                memcpy(Fs, F, (size_t)nt * nt * sizeof(double));
+                if (nu) memcpy(Fus, Fu, (size_t)nt * nu * sizeof(double));
+                if (np) memcpy(Fps, Fp, (size_t)nt * np * sizeof(double));
+            }
+        }
         if (!err && j) chain(nt, nu, np, Fs, Fus, Fps, F, Fu, Fp, T);
     }
     if (err) return err;
-    return measure_with(m, d, q, v, t + n_steps * h, z, H, Hu, Hp, reusable_last_stage(m, d, t + n_steps * h) ? &W : NULL);
+    return measure_with(m, d, q, v, t + n_steps * h, z, H, Hu, Hp,
+                        !(frozen && n_steps > 1) && reusable_last_stage(m, d, t + n_steps * h) ? &W : NULL);
 }
 
 /* n_steps steps of h from (q, v, t), then the measurement at the end; with want_jac the accumulated
@@ -404,7 +423,7 @@ int pc_predict(const pc_model_t* m, pc_data_t* d, double* q, double* v, double t
     }
     d->have_prev = 0;
     if (want_jac) {
-        err = predict_jacobians(m, d, q, v, t, h, n_steps, z, F, Fu, Fp, H, Hu, Hp);
+        err = predict_jacobians(m, d, q, v, t, h, n_steps, want_jac == 2, z, F, Fu, Fp, H, Hu, Hp);
     } else {
         for (j = 0; j < n_steps && !err; j++) err = pc_step(m, d, q, v, t + j * h, h, NULL);
         if (!err) err = measure_with(m, d, q, v, t + n_steps * h, z, NULL, NULL, NULL, NULL);

@@ -171,6 +171,7 @@ int pc_est_start(pc_est_t* E, double t0) {
     cfg.n_cal = PCE_NCAL;
     cfg.n_consider = PCE_NCON;
     cfg.full_noise = 0;
+    cfg.frozen_jacobian = PCE_FROZEN_JACOBIAN;
     cfg.n_spec = PCE_NSPEC;
     cfg.arm_v = PCE_ARM_V;
     cfg.param_spec = PCE_SPEC;
