@@ -5,8 +5,9 @@
 ``/work/tools/README.md``; skipped on a fresh machine):
 
 - the joint and dual estimator FMUs run in OMSimulator on a run's recorded sensors (a CSV table component)
-  and reproduce the native cases; OMSimulator's ``.mat`` result holds doubles, so the comparison is limited
-  by the FMU itself (the native and FMU filters round differently, a few 1e-12);
+  and reproduce the native cases; OMSimulator's ``.mat`` result holds doubles, and what limits the
+  comparison is the table's lookup, which interpolates each sample from the previous one (last-bit rounding
+  of the inputs: a few 1e-12 of the mass over 6 s, a few 1e-11 over 300 s);
 - the SSP runs in OMSimulator and reproduces the same two FMUs composed by hand in fmpy with a Jacobi master.
 
 The scenario is the 6 s copy of envisat of ``test_estimator_fmu`` (exports take seconds).
@@ -14,6 +15,7 @@ The scenario is the 6 s copy of envisat of ``test_estimator_fmu`` (exports take 
 
 from __future__ import annotations
 
+import functools
 import xml.etree.ElementTree as ET
 import zipfile
 
@@ -160,11 +162,12 @@ def test_the_ssp_in_omsimulator_is_the_composition(scheme, tmp_path):
     t, got = on_times(read_mat(tmp_path / "scheme.mat"), "scheme.root.estimator.", ESTIMATES)
     assert t.size == report.n_cycles + 1 and t[-1] == report.stop_time
     plant, est = archive / "resources/plant.fmu", archive / "resources/estimator.fmu"
-    want = compose(plant, est, report.period, report.n_cycles)
+    want, failed = compose(plant, est, report.period, report.n_cycles)
+    assert failed is None
     for rows, what in ((slice(0, 1), "mass"), (slice(1, 2), "mass sigma"), (slice(2, 6), "attitude"),
                        (slice(6, 9), "attitude sigma")):
         assert rel_by_row(got[rows], want[rows]) <= 1e-12, what
-    other = compose(plant, est, report.period, report.n_cycles, gauss_seidel=True)
+    other, _ = compose(plant, est, report.period, report.n_cycles, gauss_seidel=True)
     assert rel_by_row(other[2:6], want[2:6]) > 1e-6
     # given the round stop time, OMSimulator asks for the remainder of its summed steps, which is refused
     log = run_oms(exe, [f"--stopTime={report.n_cycles * report.period}", "--resultFile=round.mat", "--tempDir=tmp",
@@ -209,3 +212,68 @@ def test_the_estimator_fmu_in_omsimulator_reproduces_the_native_case(recorded, t
     for rows, what in ((slice(0, 1), "mass"), (slice(1, 2), "mass sigma"), (slice(2, 6), "attitude"),
                        (slice(6, 9), "attitude sigma")):
         assert rel_by_row(got[rows], want[rows]) <= 1e-9, what
+
+
+@functools.lru_cache(maxsize=2)
+def _main_job_inputs(profile: str):
+    """The default scenario's main job over 300 s for a profile: its plan, recorded sensors, true initial
+    attitude and the filters' initial attitude error."""
+    from postcapture.config import load_scenario
+    from postcapture.studies.main_job import draw_sensors, simulate_truth
+    from postcapture.studies.robust import with_model_noise
+    from postcapture.studies.setup import plan_run
+
+    plan = with_model_noise(plan_run(load_scenario("envisat"), profile=profile, cases=("dual", "joint")))
+    traj = simulate_truth(plan)
+    sensors, dq0 = draw_sensors(plan, traj, plan.seed)
+    return plan, sensors, traj["q_BN"][:, 0], dq0
+
+
+@pytest.mark.slow  # four exports of the default scenario's estimators and 300 s runs: minutes
+@pytest.mark.parametrize("profile", ["reference", "realistic"])
+@pytest.mark.parametrize("case", ["joint", "dual"])
+def test_the_estimator_fmu_in_omsimulator_over_the_main_job(tmp_path, case, profile):
+    """Acceptance: the estimator FMU in OMSimulator on the main job's recorded sensors (default scenario,
+    300 s) against the native case, to 1e-9 relative (measured: a few 1e-11 of the mass, see above)."""
+    from postcapture.core import rotations as rot
+    from postcapture.estimation.dual import on_grid
+    from postcapture.studies.estimator_fmu import export_estimator_fmu
+    from postcapture.studies.estimator_ssp import accumulated_time
+    from postcapture.studies.main_job import run_case
+
+    exe = _tool("OMSimulator")
+    plan, sensors, q_true0, dq0 = _main_job_inputs(profile)
+    fmu = export_estimator_fmu("envisat", tmp_path / "estimator.fmu", case=case, profile=profile).path
+    g = plan.t_grid
+    columns = estimator_table(on_grid(sensors.star, g), on_grid(sensors.gyro, g), on_grid(sensors.accel, g),
+                              on_grid(sensors.joints, g))
+    step, n = float(g[1] - g[0]), g.size - 1
+    t, got, log = run_estimator(exe, fmu, columns, rot.box_plus(q_true0, dq0), step, accumulated_time(step, n),
+                                tmp_path, TIMEOUT)
+    assert "error" not in log.lower() and t.size == g.size == 3001, log[-3000:]
+    want = native_estimates(run_case(plan, case, sensors, q_true0, dq0))
+    for rows, what in ((slice(0, 1), "mass"), (slice(1, 2), "mass sigma"), (slice(2, 6), "attitude"),
+                       (slice(6, 9), "attitude sigma")):
+        assert rel_by_row(got[rows], want[rows]) <= 1e-9, what
+
+
+@pytest.mark.slow  # the default scenario's plant and estimator over 300 s, in OMSimulator and in fmpy: minutes
+@pytest.mark.parametrize("case", ["joint", "dual"])
+def test_the_default_ssp_in_omsimulator_is_the_composition(tmp_path, case):
+    """The default scenario's SSP over 300 s: OMSimulator and the hand-written Jacobi composition agree bit
+    for bit on every cycle both ran, and stop at the same cycle if the estimator refuses one."""
+    from postcapture.studies.estimator_ssp import export_estimator_ssp
+
+    exe = _tool("OMSimulator")
+    report = export_estimator_ssp("envisat", tmp_path / "scheme.ssp", case=case)
+    with zipfile.ZipFile(report.path) as z:
+        z.extractall(tmp_path / "archive")
+    run_oms(exe, [f"--stopTime={report.stop_time!r}", "--resultFile=scheme.mat", "--tempDir=tmp",
+                  str(report.path)], tmp_path, TIMEOUT)
+    t, got = on_times(read_mat(tmp_path / "scheme.mat"), "scheme.root.estimator.", ESTIMATES)
+    want, failed = compose(tmp_path / "archive/resources/plant.fmu", tmp_path / "archive/resources/estimator.fmu",
+                           report.period, report.n_cycles)
+    m = want.shape[1]
+    # a refused cycle ends OMSimulator's run too: it writes one last row at the stop time
+    assert t.size == (m + 1 if failed is not None else m)
+    assert np.array_equal(got[:, :m], want)
