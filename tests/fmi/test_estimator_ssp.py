@@ -130,9 +130,19 @@ def test_write_ssp_refuses_what_does_not_fit(scheme, tmp_path):
         with pytest.raises(FMIError, match=r"star_q_w|q_BN_v|target_mass|force_x"):
             write_ssp(tmp_path / f"{what}.ssp", name="s", components=comps, connections=cons, step=0.1, stop=1.0)
         assert not (tmp_path / f"{what}.ssp").exists(), what
+    with pytest.raises(ValueError, match="^step: "):
+        write_ssp(tmp_path / "n.ssp", name="s", components=comps, connections=[good], step=float("nan"), stop=1.0)
     with pytest.raises(FMIError, match="gyro_validity"):
         write_ssp(tmp_path / "b.ssp", name="s", components=[SSPComponent("estimator", est, {"gyro_validity": 1})],
                   connections=[], step=0.1, stop=1.0)
+
+
+def test_export_refuses_an_archive_not_named_ssp(tmp_path):
+    from postcapture.studies.estimator_ssp import export_estimator_ssp
+
+    with pytest.raises(ValueError, match="^out_path: .*scheme.zip"):
+        export_estimator_ssp("envisat", tmp_path / "scheme.zip", case="joint")
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize("argv, field", [
@@ -169,9 +179,10 @@ def test_the_ssp_in_omsimulator_is_the_composition(scheme, tmp_path):
         assert rel_by_row(got[rows], want[rows]) <= 1e-12, what
     other, _ = compose(plant, est, report.period, report.n_cycles, gauss_seidel=True)
     assert rel_by_row(other[2:6], want[2:6]) > 1e-6
-    # given the round stop time, OMSimulator asks for the remainder of its summed steps, which is refused
-    log = run_oms(exe, [f"--stopTime={report.n_cycles * report.period}", "--resultFile=round.mat", "--tempDir=tmp",
-                        str(report.path)], tmp_path, TIMEOUT)
+    # given a round stop time, 1 s, OMSimulator stands at 0.9999999999999999 after ten steps and asks for the
+    # remainder, which the estimator refuses
+    log = run_oms(exe, ["--stopTime=1", "--resultFile=round.mat", "--tempDir=tmp", str(report.path)], tmp_path,
+                  TIMEOUT)
     assert "this estimator's step is its filter cycle" in log, log[-3000:]
 
 

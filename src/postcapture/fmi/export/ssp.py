@@ -18,12 +18,14 @@ command line takes the stop time from ``--stopTime`` (default 1 s) whatever the 
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from postcapture.core.errors import FMIError
+from postcapture.io import write_atomic
 
 __all__ = ["SSPConnection", "SSPComponent", "fmu_variables", "write_ssp", "SSD_NAMESPACES"]
 
@@ -227,11 +229,23 @@ def write_ssp(out_path: str | Path, *, name: str, components: list[SSPComponent]
     results : list of str, optional
         The signals OMSimulator keeps in its result file (``<element>.<var>``); all when omitted.
 
+    Returns
+    -------
+    Path
+        ``out_path``.
+
     Raises
     ------
     FMIError
         For a connector the FMU lacks, a wrong causality, an input fed twice or an FMU that is not FMI 2.0.
+    OutputPathError
+        When the archive cannot be written.
+    ValueError
+        For a step or a stop time that is not a positive number.
     """
+    for field_name, value in (("step", step), ("stop", stop)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{field_name}: expected a positive finite time in seconds, found {value!r}")
     system_inputs = dict(system_inputs or {})
     names = [c.name for c in components]
     if len(set(names)) != len(names) or any(not n.isidentifier() for n in names):
@@ -240,14 +254,14 @@ def write_ssp(out_path: str | Path, *, name: str, components: list[SSPComponent]
     filter_path = "resources/signalFilter.xml" if results is not None else None
     ssd = _ssd(name, components, connections, system_inputs, variables, units, step, stop, list(results or []),
                filter_path)
-    out_path = Path(out_path)
-    tmp = out_path.with_name(out_path.name + ".part")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd",
-                   '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(ssd, encoding="unicode") + "\n")
-        for comp in components:
-            z.write(comp.fmu, f"resources/{comp.name}.fmu")
-        if filter_path is not None:
-            z.writestr(filter_path, _filter(name, results))
-    tmp.replace(out_path)
-    return out_path
+
+    def write(tmp: str) -> None:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("SystemStructure.ssd",
+                       '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(ssd, encoding="unicode") + "\n")
+            for comp in components:
+                z.write(comp.fmu, f"resources/{comp.name}.fmu")
+            if filter_path is not None:
+                z.writestr(filter_path, _filter(name, results))
+
+    return write_atomic(out_path, write)  # a failure never leaves half an archive
