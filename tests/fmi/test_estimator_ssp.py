@@ -16,8 +16,10 @@ The scenario is the 6 s copy of envisat of ``test_estimator_fmu`` (exports take 
 from __future__ import annotations
 
 import functools
+import os
 import xml.etree.ElementTree as ET
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -59,7 +61,7 @@ def _connections(root, variables) -> dict:
     system_inputs = {c.get("name") for c in root.iterfind("ssd:System/ssd:Connectors/ssd:Connector", SSD)}
     fed = {}
     for con in root.iterfind("ssd:System/ssd:Connections/ssd:Connection", SSD):
-        start = (con.get("startElement"), con.get("startConnector"))
+        start = (con.get("startElement", ""), con.get("startConnector"))  # none: the system's own input
         end = (con.get("endElement"), con.get("endConnector"))
         if start[0] == "":
             assert start[1] in system_inputs and variables["plant"][start[1]].causality == "input"
@@ -111,6 +113,18 @@ def test_the_archive_connects_existing_variables(scheme):
     for _ in range(60):
         t += 0.1
     assert report.n_cycles == 60 and stop == report.stop_time == t != 6.0
+
+
+def test_the_ssd_is_valid_ssp_1_0(scheme):
+    """Against the SSP 1.0 schema OMSimulator ships (``$POSTCAPTURE_SSP_SCHEMA`` or its install here)."""
+    etree = pytest.importorskip("lxml.etree")
+    xsd = Path(os.environ.get("POSTCAPTURE_SSP_SCHEMA",
+                              "/work/tools/omsimulator/bin/schema/ssp/SystemStructureDescription.xsd"))
+    if not xsd.is_file():
+        pytest.skip(f"no SSP schema at {xsd} (it comes with OMSimulator, built by hand)")
+    schema = etree.XMLSchema(etree.parse(str(xsd)))
+    ssd = etree.parse(str(scheme[1] / "SystemStructure.ssd"))
+    assert schema.validate(ssd), schema.error_log
 
 
 def test_write_ssp_refuses_what_does_not_fit(scheme, tmp_path):

@@ -171,10 +171,11 @@ def _ssd(name: str, components, connections, system_inputs: dict, variables: dic
                 p = ET.SubElement(params, _qualified("ssv", "Parameter"), {"name": var})
                 ET.SubElement(p, _qualified("ssv", "Real"), {"value": repr(float(value))})
     links = ET.SubElement(system, _qualified("ssd", "Connections"))
-    for con in connections:
+    for con in connections:  # no startElement: the system's own connector
+        start = {"startElement": con.start_element} if con.start_element else {}
         ET.SubElement(links, _qualified("ssd", "Connection"), {
-            "startElement": con.start_element, "startConnector": con.start_connector,
-            "endElement": con.end_element, "endConnector": con.end_connector})
+            **start, "startConnector": con.start_connector, "endElement": con.end_element,
+            "endConnector": con.end_connector})
     master = _oms_annotation(system)
     ET.SubElement(master, _qualified("oms", "FixedStepMaster"),
                   {"description": "oms-ma", "stepSize": repr(float(step)), "relativeTolerance": "0.0001"})
