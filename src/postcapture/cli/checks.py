@@ -314,7 +314,16 @@ def fmu_export(args) -> None:
 
     check = Pass("fmu export")
     check.output_file("--output", args.output)
-    if str(args.output).strip():
+    if getattr(args, "ssp", False):
+        if not getattr(args, "estimator", None):
+            check.add("--estimator", "a case (joint or dual) with --ssp: the archive holds the plant and its estimator",
+                      "none")
+        if args.fmi != 2:
+            check.add("--fmi", "2 with --ssp (OMSimulator, the SSP master, reads FMI 2.0 FMUs)", args.fmi)
+        if not str(args.output).lower().endswith(".ssp"):
+            check.add("--output", "a FILE.ssp with --ssp (OMSimulator recognises an archive by that suffix)",
+                      args.output)
+    elif str(args.output).strip():
         check.output_file("--output (its mapping file)", mapping_sidecar(args.output))
     check.paths_checked()
     scenario = check.scenario(args.scenario)

@@ -240,6 +240,8 @@ def cmd_fmu_export(args) -> int:
     from postcapture.fmi import export_fmu
 
     scenario = load_scenario(args.scenario)
+    if getattr(args, "ssp", False):
+        return _export_ssp(args, scenario)
     if getattr(args, "estimator", None):
         return _export_estimator(args, scenario)
     with _display(args, "fmu export") as shown:
@@ -276,6 +278,29 @@ def _export_estimator(args, scenario) -> int:
         _echo(f"exported {info['fmu']}: FMI {report.fmi_version} co-simulation, the {report.case} estimator "
               f"({report.profile} profile), one doStep per {report.period:g} s filter cycle, "
               f"{info['n_variables']} variables")
+    return 0
+
+
+def _export_ssp(args, scenario) -> int:
+    from postcapture.studies.estimator_ssp import export_estimator_ssp
+
+    with _display(args, "fmu export --ssp") as shown:
+        report = export_estimator_ssp(scenario, args.output, case=args.estimator, profile=args.profile,
+                                      variant=args.variant, panel_segments=args.panel_segments,
+                                      directional_derivatives=not args.no_directional,
+                                      step_jacobian=not args.no_step_jacobian,
+                                      progress=lambda msg, *rest: shown.phase(msg))
+    info = {"ssp": str(report.path), "fmi_version": "2.0", "case": report.case, "profile": report.profile,
+            "step_s": report.period, "n_cycles": report.n_cycles, "stop_time_s": report.stop_time,
+            "n_connections": len(report.connections),
+            "omsimulator": f"OMSimulator --stopTime={report.stop_time!r} {report.path}"}
+    if args.json:
+        _print_json(info)
+    else:
+        _echo(f"exported {info['ssp']}: SSP 1.0, the plant and the {report.case} estimator ({report.profile} "
+              f"profile) as FMI 2.0 co-simulation FMUs, {info['n_connections']} connections, one "
+              f"{report.period:g} s step per filter cycle")
+        _echo(f"run it over {report.n_cycles} cycles with: {info['omsimulator']}")
     return 0
 
 

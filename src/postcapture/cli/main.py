@@ -282,7 +282,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "per filter cycle, in the FMI version of --fmi")
     c.add_argument("--profile", default="reference", choices=("reference", "realistic"),
                    help="with --estimator: the sensor profile whose tuning it carries")
-    c.add_argument("-o", "--output", required=True, metavar="FILE.fmu")
+    c.add_argument("--ssp", action="store_true",
+                   help="with --estimator: an SSP archive (-o FILE.ssp) of the plant FMU and the estimator FMU, "
+                        "connected, for OMSimulator (FMI 2.0)")
+    c.add_argument("-o", "--output", required=True, metavar="FILE.fmu|FILE.ssp")
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=commands.cmd_fmu_export)
     c = command(fmu_sub, "info", help="variables, capabilities and what a filter mapping needs")

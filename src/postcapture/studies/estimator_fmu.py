@@ -47,6 +47,7 @@ import numpy as np
 from postcapture.config.schema import Scenario
 from postcapture.fmi._extras import import_fmpy
 from postcapture.fmi.export.c_header import _array, _c_string, _num
+from postcapture.fmi.export.interface import UNITS
 from postcapture.io import check_output_file, scratch_folder
 
 __all__ = ["ESTIMATOR_CASES", "EstimatorVariable", "EstimatorExport", "export_estimator_fmu", "estimator_variables"]
@@ -282,8 +283,11 @@ def _model_description(layout: _Layout, ident: str, guid: str, case: str, scenar
     units = sorted({v.unit for v in layout.variables if v.unit})
     if units:
         defs = ET.Element("UnitDefinitions")
-        for u in units:
-            ET.SubElement(defs, "Unit", {"name": u})
+        for u in units:  # with SI base units, which masters compare across a connection (OMSimulator does)
+            base = {**UNITS, "rad2": {"rad": 2}}.get(u)
+            unit = ET.SubElement(defs, "Unit", {"name": u})
+            if base is not None:
+                ET.SubElement(unit, "BaseUnit", {k: str(e) for k, e in base.items()})
         root.insert(1, defs)  # after CoSimulation (FMI 2.0 schema order)
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
