@@ -215,6 +215,7 @@ def test_plant_in_the_filters_orbit(envisat_dict, tmp_path):
     from postcapture.fmi import export_fmu
 
     envisat_dict["orbit"]["filters"] = "model"
+    envisat_dict["estimation"]["jacobian"] = "every_step"  # what the FMU's Jacobian outputs are
     sc = scenario_from_dict(envisat_dict)
     report = export_fmu(sc, tmp_path / "orbit.fmu", variant="rigid")
     native = NativeProcessModel.for_filters(sc, variant="rigid")
