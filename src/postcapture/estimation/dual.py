@@ -145,6 +145,22 @@ def _propagate(F, g, S) -> np.ndarray:
     return out
 
 
+def _lean(K, s_att) -> np.ndarray:
+    """``(I - K) s``: the attitude's mass sensitivity after an accepted star-tracker update of gain ``K`` (the
+    engine's)."""
+    out = np.array(s_att, dtype=float)
+    _engine.engine().rdual_lean(np.ascontiguousarray(K, dtype=float), out)
+    return out
+
+
+def _mass_noise(s_rate, dt: float, sigma: float) -> np.ndarray:
+    """``d d^T`` with ``d = s_rate dt sigma``: what the mass uncertainty does to the plant copy's attitude over a
+    step, as process noise (the engine's)."""
+    Q = np.zeros((3, 3))
+    _engine.engine().rdual_mass_noise(np.ascontiguousarray(s_rate, dtype=float), float(dt), float(sigma), Q)
+    return Q
+
+
 def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: float, t_grid, S0=None,
              q0_BN=None, raise_on_divergence: bool = True, progress=None) -> DualResult:
     """Run the dual scheme over a time grid.
@@ -254,18 +270,14 @@ class _DualRun:
         ``(prediction, S before the correction, update result)``."""
         filt, S = self.filt, self.S
         if self.config.mass_aware_q:
-            Q = np.zeros((3, 3))
-            _engine.engine().rdual_mass_noise(np.ascontiguousarray(S[self.rate]), self.dt, self.mass.sigma, Q)
-            filt.extra_process_noise = Q
+            filt.extra_process_noise = _mass_noise(S[self.rate], self.dt, self.mass.sigma)
         filt.predict(t, self.dt)
         p = filt.last_prediction
         S = _propagate(p.F, p.g, S)
         S_pred = S.copy()
         res = filt.update(Measurement("star_tracker", t1, self.star[:, k + 1], self.R_star))
         if res is not None and res.accepted:  # the copy's attitude now leans on the measurement
-            s_att = np.ascontiguousarray(S[self.att])
-            _engine.engine().rdual_lean(np.ascontiguousarray(filt.last_gain, dtype=float), s_att)
-            S[self.att] = s_att
+            S[self.att] = _lean(filt.last_gain, S[self.att])
         self.x, self.S = filt.x, S
         return p, S_pred, res
 

@@ -87,12 +87,12 @@ void pc_dmass_direction(const double* pi, double* d) {
  * inertia about the origin moves along d pi / d m, which is constant at a fixed centre of mass); PC_ERR_ARG
  * for m <= 0 or a target whose mass is not positive */
 int pc_target_mass(const double* pi, double m, double* out) {
-    double d[10];
+    double d[10], m0 = pi[0];
     int i;
-    if (!(m > 0.0) || !(pi[0] > 0.0) || !(fabs(m) < INFINITY)) return PC_ERR_ARG;
+    if (!(m > 0.0) || !(m0 > 0.0) || !(fabs(m) < INFINITY)) return PC_ERR_ARG;
     pc_dmass_direction(pi, d);
-    out[0] = m;
+    for (i = 4; i < 10; i++) out[i] = pi[i] + (m - m0) * d[i]; /* out may be pi */
     for (i = 1; i < 4; i++) out[i] = m * d[i];
-    for (i = 4; i < 10; i++) out[i] = pi[i] + (m - pi[0]) * d[i];
+    out[0] = m;
     return PC_OK;
 }
