@@ -22,6 +22,11 @@ constant ``Q`` is either too small while the mass is uncertain or too large once
 
 Steps 1-4 are the reference's scheme (its figure 3); 5, the total sensitivity and the mass-aware ``Q``
 are ours.
+
+The filters' arithmetic and the equations between them and the plant copy (``S <- F S + g``, the lean of
+``S`` on the star tracker, the mass-aware ``Q``, the devices' prediction and its derivative) are the compiled
+engine's (``pc_refdual.c``), which the estimator FMU of ``ekf_flexible`` and ``mekf_flexible``
+(``fmi/csrc/pc_est_refdual.c``) runs too; this module orders them around any process model.
 """
 
 from __future__ import annotations

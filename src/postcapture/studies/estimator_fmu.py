@@ -1,4 +1,5 @@
-"""``export_estimator_fmu``: a recommended estimation scheme as an FMI 2.0 co-simulation FMU.
+"""``export_estimator_fmu``: an estimation scheme as an FMI 2.0 co-simulation FMU (a recommended one, or the
+reference's dual scheme).
 
 The reference implemented its filters inside an FMU, the predictor before ``fmiDoStep`` and the corrector
 after. Here one ``fmi2DoStep`` is one filter cycle (the filter period): the predictor runs inside the FMU
@@ -61,7 +62,8 @@ from postcapture.fmi._extras import import_fmpy
 from postcapture.fmi.export.c_header import _array, _c_string, _num
 from postcapture.io import check_output_file, scratch_folder
 
-__all__ = ["ESTIMATOR_CASES", "EstimatorVariable", "EstimatorExport", "export_estimator_fmu", "estimator_variables"]
+__all__ = ["ESTIMATOR_CASES", "REFERENCE_DUAL_CASES", "EstimatorVariable", "EstimatorExport", "export_estimator_fmu",
+           "estimator_variables", "reference_dual_variables"]
 
 ESTIMATOR_CASES = ("joint", "dual", "ekf_flexible", "mekf_flexible")
 REFERENCE_DUAL_CASES = ("ekf_flexible", "mekf_flexible")
