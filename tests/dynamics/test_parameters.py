@@ -9,7 +9,8 @@ from postcapture.core.errors import DomainError
 from postcapture.dynamics.bodies import MassProperties
 from postcapture.dynamics.build import build_system, initial_state
 from lie_oracle import make_integrator
-from postcapture.dynamics.parameters import dmass_direction, dynamic_parameters, mass_properties, transform_matrix
+from postcapture.dynamics.parameters import (dmass_direction, dynamic_parameters, mass_properties, transform_matrix,
+                                             with_target_mass)
 from postcapture.dynamics.core import CompiledPlant
 from postcapture.dynamics.process_model import NativeProcessModel
 
@@ -43,6 +44,24 @@ def test_mass_direction_is_the_derivative_at_fixed_com_and_inertia(rng=np.random
     plus = dynamic_parameters(MassProperties(body.mass + eps, body.com, body.inertia))
     minus = dynamic_parameters(MassProperties(body.mass - eps, body.com, body.inertia))
     np.testing.assert_allclose(dmass_direction(dynamic_parameters(body)), (plus - minus) / (2 * eps), rtol=1e-8)
+
+
+def test_the_hub_mass_moves_at_a_fixed_centre_of_mass_and_inertia(rng=np.random.default_rng(4)):
+    """The engine's split (pc_target_mass, which the estimator FMU runs on its parameters in place) against the
+    mass properties rebuilt with the new mass."""
+    from postcapture.dynamics.engine import engine
+
+    body = _random_body(rng)
+    p = np.concatenate([dynamic_parameters(body), [1.0, 0.5]])
+    got = with_target_mass(p, 2.5 * body.mass + 3.0, 3.0)
+    want = dynamic_parameters(MassProperties(2.5 * body.mass, body.com, body.inertia))
+    np.testing.assert_allclose(got[:10], want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    assert got[10:].tolist() == [1.0, 0.5]
+    pi = np.ascontiguousarray(p[:10])
+    engine().target_mass(pi, 2.5 * body.mass, pi)  # written over its input
+    np.testing.assert_allclose(pi, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    with pytest.raises(ValueError, match="target_mass"):
+        with_target_mass(p, 2.0, 3.0)
 
 
 def test_names_and_nominal_values(envisat):

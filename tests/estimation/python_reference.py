@@ -99,6 +99,32 @@ def mean_specific_force(phi, v0_B, w0_B, v1_B, w1_B, r_B, dt: float):
     return (Eu1 - u0) / dt, J
 
 
+
+def device_prediction(model, x0, x1, dt: float, S0, S1):
+    q0, q1 = model.attitude(x0), model.attitude(x1)
+    phi = rot.box_minus(q1, q0)
+    f, J = mean_specific_force(phi, model.chaser_velocity(x0), model.body_rate(x0), model.chaser_velocity(x1),
+                               model.body_rate(x1), model.accelerometer_position, dt)
+    att, vel, rate = model.tangent_attitude, model.tangent_velocity, model.tangent_rate
+    df = (J["att1"] @ S1[att] + J["v1"] @ S1[vel] + J["w1"] @ S1[rate]
+          + J["att0"] @ S0[att] + J["v0"] @ S0[vel] + J["w0"] @ S0[rate])
+    arm = model.tangent_arm
+    return np.concatenate([f, model.arm_angles(x1)]), np.concatenate([df, S1[arm]])
+
+
+def propagate(F, g, S):
+    return F @ S + g
+
+
+def lean(K, s_att):
+    return s_att - K @ s_att
+
+
+def mass_noise(s_rate, dt, sigma):
+    d = np.asarray(s_rate) * dt * sigma
+    return np.outer(d, d)
+
+
 def tidal_mean_B0(q0_BN, r0_N, q1_BN, r1_N, r_B, mean_motion: float, t0: float, t1: float) -> np.ndarray:
     if not mean_motion:
         return np.zeros(3)

@@ -184,14 +184,16 @@ def _dual_reference_case(plan, case: str, sensors, q_true0, dq0, reference: bool
     import postcapture.estimation.dual as dual
     from postcapture.studies.main_job import run_case
 
-    saved = (dual.MassFilter, dual.AttitudeEKF, dual.MEKF, dual.mean_specific_force)
+    names = ("MassFilter", "AttitudeEKF", "MEKF", "device_prediction", "_propagate", "_lean", "_mass_noise")
+    saved = {name: getattr(dual, name) for name in names}
     if reference:
-        dual.MassFilter, dual.AttitudeEKF, dual.MEKF, dual.mean_specific_force = (
-            ref.MassFilter, ref.AttitudeEKF, ref.MEKF, ref.mean_specific_force)
+        for name in names:
+            setattr(dual, name, getattr(ref, name.lstrip("_")))
     try:
         return run_case(plan, case, sensors, q_true0, dq0)
     finally:
-        dual.MassFilter, dual.AttitudeEKF, dual.MEKF, dual.mean_specific_force = saved
+        for name, value in saved.items():
+            setattr(dual, name, value)
 
 
 @pytest.mark.parametrize("case", ["ekf_flexible", "mekf_flexible"])

@@ -277,9 +277,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--panel-segments", type=_segments, default=None, metavar="N")
     c.add_argument("--no-directional", action="store_true", help="without directional derivatives")
     c.add_argument("--no-step-jacobian", action="store_true", help="without the exact step-Jacobian outputs")
-    c.add_argument("--estimator", default=None, choices=("joint", "dual"), metavar="CASE",
-                   help="instead of the plant: the estimator of a recommended case (joint or dual), one doStep "
-                        "per filter cycle, in the FMI version of --fmi")
+    c.add_argument("--estimator", default=None, choices=("joint", "dual", "ekf_flexible", "mekf_flexible"),
+                   metavar="CASE",
+                   help="instead of the plant: the estimator of a case, one doStep per filter cycle, in the FMI "
+                        "version of --fmi: a recommended one (joint, dual) or the reference's dual scheme with its "
+                        "EKF or MEKF (ekf_flexible, mekf_flexible)")
     c.add_argument("--profile", default="reference", choices=("reference", "realistic"),
                    help="with --estimator: the sensor profile whose tuning it carries")
     c.add_argument("--ssp", action="store_true",

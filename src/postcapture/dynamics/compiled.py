@@ -47,7 +47,7 @@ SOURCES = ("pc_model.c", "pc_validate.c", "pc_data.c", "pc_inputs.c", "pc_passiv
            "pc_integrator.c", "pc_jacobian.c", "pc_gravity.c")
 # the filters' arithmetic (pc_filter.h): compiled into the same library, and into the estimator FMUs
 FILTER_SOURCES = ("pc_recovery.c", "pc_kalman.c", "pc_so3.c", "pc_increments.c", "pc_parameters.c", "pc_mekf.c",
-                  "pc_attitude_ekf.c", "pc_mass_filter.c", "pc_augmented.c")
+                  "pc_attitude_ekf.c", "pc_mass_filter.c", "pc_augmented.c", "pc_refdual.c")
 HEADERS = ("pc_plant.h", "pc_internal.h", "pc_spatial.h", "pc_filter.h", "pc_filter_internal.h")
 # The FMU export compiles the same sources with the same flags, so both run the same arithmetic.
 CFLAGS = ("-O3", "-std=c99", "-fPIC", "-ffp-contract=off", "-fvisibility=hidden")

@@ -203,6 +203,13 @@ _FILTER_PLAIN = {
     "pc_parammap_size": (_INT, [_I, _INT, _INT]),
     "pc_parammap_apply": (None, [_I, _D, _INT, _D, _OD, _OD]),
     "pc_sigmoid": (None, [_DBL, _DBL, _DBL, _DBL, ctypes.POINTER(_DBL), ctypes.POINTER(_DBL)]),
+    "pc_massf_estimate": (None, [_H, ctypes.POINTER(_DBL), ctypes.POINTER(_DBL)]),
+    "pc_rdual_propagate": (None, [_INT, _D, _D, _D, _D]),
+    "pc_rdual_lean": (None, [_D, _D]),
+    "pc_rdual_mass_noise": (None, [_D, _DBL, _DBL, _D]),
+    "pc_rdual_devices": (None, [_D, _D, _D, _D, _D, _D, _D, _DBL, _D, _D, _INT, _D, _D, _D, _D]),
+    "pc_dmass_direction": (None, [_D, _D]),
+    "pc_target_mass": (_INT, [_D, _DBL, _D]),
 }
 
 

@@ -106,11 +106,13 @@ def transform_matrix(R, p) -> np.ndarray:
 
 def dmass_direction(pi) -> np.ndarray:
     """``d pi / d m`` at a fixed centre of mass and a fixed inertia about it, shape (10,):
-    ``[1, c, |c|^2 I - c c^T]`` with ``c = (m c) / m`` (a filter step calls it: plain arithmetic)."""
-    m = float(pi[0])
-    cx, cy, cz = float(pi[1]) / m, float(pi[2]) / m, float(pi[3]) / m
-    cc = cx * cx + cy * cy + cz * cz
-    return np.array([1.0, cx, cy, cz, cc - cx * cx, -cx * cy, cc - cy * cy, -cx * cz, -cy * cz, cc - cz * cz])
+    ``[1, c, |c|^2 I - c c^T]`` with ``c = (m c) / m``; the engine's (``pc_refdual.c``), which the reference-dual
+    estimator FMU also runs."""
+    from postcapture.dynamics.engine import engine
+
+    out = np.zeros(10)
+    engine().dmass_direction(np.ascontiguousarray(pi[:10], dtype=float), out)
+    return out
 
 
 def check_parameters(names, p, has_target: bool) -> np.ndarray:
@@ -141,11 +143,16 @@ def check_parameters(names, p, has_target: bool) -> np.ndarray:
 def with_target_mass(p, total_mass: float, panel_mass: float) -> np.ndarray:
     """The parameter vector with the target's total mass (hub plus ``panel_mass`` of panels) set to
     ``total_mass``: the hub's mass moves at a fixed centre of mass and a fixed inertia about it (the one
-    place this split is computed)."""
+    place this split is computed: ``pc_target_mass`` in the engine)."""
     m_hub = float(total_mass) - panel_mass
     if not m_hub > 0.0:
         raise ValueError(f"target_mass: expected more than the panels' {panel_mass} kg, found {total_mass}")
+    from postcapture.dynamics.engine import engine
+
     p = np.array(p, dtype=float)
-    props = mass_properties(p[:10])
-    p[:10] = dynamic_parameters(MassProperties(m_hub, props.com, props.inertia))
+    if not p[0] > 0.0:
+        raise ValueError(f"target.m: expected a hub of positive mass to move, found {p[0]}")
+    out = np.zeros(10)
+    engine().target_mass(np.ascontiguousarray(p[:10]), m_hub, out)  # the engine's, as the estimator FMU runs it
+    p[:10] = out
     return p

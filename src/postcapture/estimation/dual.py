@@ -22,6 +22,11 @@ constant ``Q`` is either too small while the mass is uncertain or too large once
 
 Steps 1-4 are the reference's scheme (its figure 3); 5, the total sensitivity and the mass-aware ``Q``
 are ours.
+
+The filters' arithmetic and the equations between them and the plant copy (``S <- F S + g``, the lean of
+``S`` on the star tracker, the mass-aware ``Q``, the devices' prediction and its derivative) are the compiled
+engine's (``pc_refdual.c``), which the estimator FMU of ``ekf_flexible`` and ``mekf_flexible``
+(``fmi/csrc/pc_est_refdual.c``) runs too; this module orders them around any process model.
 """
 
 from __future__ import annotations
@@ -33,10 +38,10 @@ import numpy as np
 
 from postcapture.core import rotations as rot
 from postcapture.core.errors import FilterDivergenceError
+from postcapture.dynamics import engine as _engine
 from postcapture.estimation.attitude_ekf import AttitudeEKF, AttitudeEKFTuning
 from postcapture.estimation.filter import Measurement
 from postcapture.estimation.history import EstimateHistory, StepFlag
-from postcapture.estimation.increments import mean_specific_force
 from postcapture.estimation.mass_filter import MassFilter, MassFilterTuning
 from postcapture.estimation.mekf import MEKF, MEKFTuning
 
@@ -120,16 +125,45 @@ class DualResult:
 def device_prediction(model, x0, x1, dt: float, S0, S1):
     """The accelerometer's mean specific force over a step and the encoders' angles at its end, predicted from
     the plant states ``x0`` and ``x1`` at its two ends, and their derivatives along the state sensitivities
-    ``S0`` and ``S1`` (tangent, (n,)) at those ends: ``(z (3 + n_arm), dz (3 + n_arm))``."""
-    q0, q1 = model.attitude(x0), model.attitude(x1)
-    phi = rot.box_minus(q1, q0)
-    f, J = mean_specific_force(phi, model.chaser_velocity(x0), model.body_rate(x0), model.chaser_velocity(x1),
-                               model.body_rate(x1), model.accelerometer_position, dt)
-    att, vel, rate = model.tangent_attitude, model.tangent_velocity, model.tangent_rate
-    df = (J["att1"] @ S1[att] + J["v1"] @ S1[vel] + J["w1"] @ S1[rate]
-          + J["att0"] @ S0[att] + J["v0"] @ S0[vel] + J["w0"] @ S0[rate])
-    arm = model.tangent_arm
-    return np.concatenate([f, model.arm_angles(x1)]), np.concatenate([df, S1[arm]])
+    ``S0`` and ``S1`` (tangent, (n,)) at those ends: ``(z (3 + n_arm), dz (3 + n_arm))`` (the engine's
+    ``pc_rdual_devices``)."""
+    att, vel, rate, arm = model.tangent_attitude, model.tangent_velocity, model.tangent_rate, model.tangent_arm
+    S0, S1 = np.asarray(S0, dtype=float), np.asarray(S1, dtype=float)
+    s0 = np.concatenate([S0[att], S0[vel], S0[rate]])
+    s1 = np.concatenate([S1[att], S1[vel], S1[rate]])
+    angles = np.ascontiguousarray(model.arm_angles(x1), dtype=float)
+    n = 3 + angles.size
+    z, dz = np.zeros(n), np.zeros(n)
+    v = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    _engine.engine().rdual_devices(v(model.attitude(x0)), v(model.attitude(x1)), v(model.chaser_velocity(x0)),
+                                   v(model.body_rate(x0)), v(model.chaser_velocity(x1)), v(model.body_rate(x1)),
+                                   v(model.accelerometer_position), float(dt), s0, s1, angles.size, angles,
+                                   v(S1[arm]), z, dz)
+    return z, dz
+
+
+def _propagate(F, g, S) -> np.ndarray:
+    """``F S + g``: the plant state's sensitivity to the mass over one step (the engine's)."""
+    out = np.zeros(S.size)
+    _engine.engine().rdual_propagate(S.size, np.ascontiguousarray(F, dtype=float), np.ascontiguousarray(g, dtype=float),
+                                     np.ascontiguousarray(S, dtype=float), out)
+    return out
+
+
+def _lean(K, s_att) -> np.ndarray:
+    """``(I - K) s``: the attitude's mass sensitivity after an accepted star-tracker update of gain ``K`` (the
+    engine's)."""
+    out = np.array(s_att, dtype=float)
+    _engine.engine().rdual_lean(np.ascontiguousarray(K, dtype=float), out)
+    return out
+
+
+def _mass_noise(s_rate, dt: float, sigma: float) -> np.ndarray:
+    """``d d^T`` with ``d = s_rate dt sigma``: what the mass uncertainty does to the plant copy's attitude over a
+    step, as process noise (the engine's)."""
+    Q = np.zeros((3, 3))
+    _engine.engine().rdual_mass_noise(np.ascontiguousarray(s_rate, dtype=float), float(dt), float(sigma), Q)
+    return Q
 
 
 def run_dual(model, sensors: SensorSuite, config: DualConfig, *, x0, theta0: float, t_grid, S0=None,
@@ -241,15 +275,14 @@ class _DualRun:
         ``(prediction, S before the correction, update result)``."""
         filt, S = self.filt, self.S
         if self.config.mass_aware_q:
-            d = S[self.rate] * self.dt * self.mass.sigma
-            filt.extra_process_noise = np.outer(d, d)
+            filt.extra_process_noise = _mass_noise(S[self.rate], self.dt, self.mass.sigma)
         filt.predict(t, self.dt)
         p = filt.last_prediction
-        S = p.F @ S + p.g
+        S = _propagate(p.F, p.g, S)
         S_pred = S.copy()
         res = filt.update(Measurement("star_tracker", t1, self.star[:, k + 1], self.R_star))
         if res is not None and res.accepted:  # the copy's attitude now leans on the measurement
-            S[self.att] -= filt.last_gain @ S[self.att]
+            S[self.att] = _lean(filt.last_gain, S[self.att])
         self.x, self.S = filt.x, S
         return p, S_pred, res
 
@@ -258,7 +291,7 @@ class _DualRun:
         overwrite the plant copy's: ``(prediction, S before the overwrite, update result)``."""
         model, filt, att, rate = self.model, self.filt, self.att, self.rate
         p = model.predict(self.x, t, self.dt, jacobians=True)
-        S = p.F @ self.S + p.g
+        S = _propagate(p.F, p.g, self.S)
         S_pred = S.copy()
         self._hold_gyro(k)
         if self.last_gyro is not None:

@@ -119,26 +119,26 @@ class MassFilter(FilterBase):
         """The state: the sigmoid pre-image of the mass, then the accelerometer bias (when estimated)."""
         return self._s.copy()
 
-    def _map(self):
-        theta, slope = ctypes.c_double(), ctypes.c_double()
-        m = self.map
-        self._eng.sigmoid(m.a, m.b, m.c, float(self._s[0]), ctypes.byref(theta), ctypes.byref(slope))
-        return theta.value, slope.value
-
     @property
     def x(self) -> float:
         """The sigmoid pre-image of the mass."""
         return float(self._s[0])
 
+    def estimate(self) -> tuple[float, float]:
+        """The mass estimate and its one-sigma (kg), through the map's slope (the engine's)."""
+        theta, sigma = ctypes.c_double(), ctypes.c_double()
+        self._eng.massf_estimate(self._handle, ctypes.byref(theta), ctypes.byref(sigma))
+        return theta.value, sigma.value
+
     @property
     def theta(self) -> float:
         """Mass estimate (kg)."""
-        return self._map()[0]
+        return self.estimate()[0]
 
     @property
     def sigma(self) -> float:
         """One-sigma of the mass estimate (kg), through the map's slope."""
-        return float(abs(self._map()[1]) * np.sqrt(self._P[0, 0]))
+        return self.estimate()[1]
 
     @property
     def accel_bias(self) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""``export_estimator_fmu``: a recommended estimation scheme as an FMI 2.0 or 3.0 co-simulation FMU.
+"""``export_estimator_fmu``: an estimation scheme as an FMI 2.0 or 3.0 co-simulation FMU (a recommended one, or
+the reference's dual scheme).
 
 The reference implemented its filters inside an FMU, the predictor before ``fmiDoStep`` and the corrector
 after. Here one ``fmi2DoStep`` is one filter cycle (the filter period): the predictor runs inside the FMU
@@ -30,6 +31,20 @@ Variables (value references in this order):
   1-sigma ``p_sigma.<name>`` (the target hub's mass, first moment and inertia in T, and the factors), the NIS
   of the accepted updates ``nis_gyro``, ``nis_star``, ``nis_accel``, ``nis_encoders`` (-1 when none: every
   output stays finite), ``n_missing``, ``n_outliers``, ``recoveries`` and ``diverged`` (1 once a filter diverged).
+
+The reference's dual scheme (``ekf_flexible``, ``mekf_flexible``: :mod:`postcapture.estimation.dual`) runs
+``fmi/csrc/pc_est_refdual.c`` over the same inputs (the EKF reads no gyro; the MEKF holds the last valid one),
+with what :func:`~postcapture.studies.main_job.run_case` builds for the case (its plant copy's initial state and
+mass sensitivity, the filters' tuning). Its parameters: ``q0_BN_w/x/y/z``, ``R_star[i,j]``, ``ekf_Q[i,j]``
+(EKF: rad^2 per cycle) or ``mekf_sigma_v``, ``mekf_sigma_u`` (MEKF), ``mass_R[i]`` (the mass filter's
+variances: accelerometer (m/s^2)^2 then encoders rad^2), ``mass_q_start``, ``mass_q_end`` (its scheduled process
+noise), ``mass_q_accel_bias`` (realistic profile), ``mass_schedule_end`` (fixed, s: where the schedule ends,
+the run's end) and ``star_norm_tolerance``. Its outputs: ``q_BN_*``, ``omega_BN_B_*`` (the plant copy's),
+``attitude_sigma_*``, ``gyro_bias_*`` (MEKF), ``target_mass``, ``target_mass_sigma``, ``accel_bias_*`` (the
+mass filter's, realistic profile), ``nis_star``, ``nis_accelerations`` (the mass filter's measurement: the
+accelerometer and the encoders together), ``n_missing``, ``n_outliers``, ``recoveries``, ``diverged``. The
+reference's mass filter estimates the mass alone, at the nominal centre of mass and inertia about it: the FMU
+outputs no centre of mass or inertia.
 """
 
 from __future__ import annotations
@@ -50,11 +65,15 @@ from postcapture.fmi.export.c_header import _array, _c_string, _num
 from postcapture.fmi.export.interface import UNITS
 from postcapture.io import check_output_file, scratch_folder
 
-__all__ = ["ESTIMATOR_CASES", "EstimatorVariable", "EstimatorExport", "export_estimator_fmu", "estimator_variables"]
+__all__ = ["ESTIMATOR_CASES", "REFERENCE_DUAL_CASES", "EstimatorVariable", "EstimatorExport", "export_estimator_fmu",
+           "estimator_variables", "reference_dual_variables"]
 
-ESTIMATOR_CASES = ("joint", "dual")
-_RUNTIME = ("pc_estimator.c", "pc_estimator.h", "pc_est_fmu.c", "pc_est_fmu.h")
+ESTIMATOR_CASES = ("joint", "dual", "ekf_flexible", "mekf_flexible")
+REFERENCE_DUAL_CASES = ("ekf_flexible", "mekf_flexible")
+_RUNTIME = ("pc_estimator.h", "pc_est_inputs.c", "pc_est_fmu.c", "pc_est_fmu.h")
 _WRAPPERS = {2: "pc_est_fmi2.c", 3: "pc_est_fmi3.c"}  # the FMI version's interface (fmi/csrc)
+_CYCLE = {"joint": "pc_estimator.c", "dual": "pc_estimator.c", "ekf_flexible": "pc_est_refdual.c",
+          "mekf_flexible": "pc_est_refdual.c"}  # the scheme's cycle: one per FMU
 INPUT, PARAMETER, OUTPUT = 0, 1, 2
 
 
@@ -101,15 +120,7 @@ def estimator_variables(n_arm: int, n_u: int, param_names, *, dual: bool, q0, R_
                         model_noise, mekf: tuple[float, float]) -> _Layout:
     """The variable table of an estimator FMU (see the module docstring)."""
     L = _Layout()
-    L.add("STAR", [f"star_q_{a}" for a in "wxyz"], INPUT, [1, 0, 0, 0], description="star tracker q_BN")
-    L.add("STAR_VALID", ["star_valid"], INPUT, [0])
-    L.add("GYRO", [f"gyro_{a}" for a in "xyz"], INPUT, [0] * 3, description="gyro mean rate", unit="rad/s")
-    L.add("GYRO_VALID", ["gyro_valid"], INPUT, [0])
-    L.add("ACCEL", [f"accel_{a}" for a in "xyz"], INPUT, [0] * 3, description="mean specific force", unit="m/s2")
-    L.add("ACCEL_VALID", ["accel_valid"], INPUT, [0])
-    L.add("ENC", [f"encoder_{i + 1}" for i in range(n_arm)], INPUT, [0] * n_arm, description="joint angle", unit="rad")
-    L.add("ENC_VALID", ["encoders_valid"], INPUT, [0])
-    L.add("U", [f"u_{i + 1}" for i in range(n_u)], INPUT, [0] * n_u, description="commanded input (N or N m)")
+    _inputs(L, n_arm, n_u)
     L.add("Q0", [f"q0_BN_{a}" for a in "wxyz"], PARAMETER, q0, description="initial attitude estimate")
     L.add("R_STAR", [f"R_star[{i + 1},{j + 1}]" for i in range(3) for j in range(3)], PARAMETER,
           np.ravel(R_star), unit="rad2", tunable=True)
@@ -139,6 +150,186 @@ def estimator_variables(n_arm: int, n_u: int, param_names, *, dual: bool, q0, R_
     L.add("RECOVERIES", ["recoveries"], OUTPUT, [0])
     L.add("DIVERGED", ["diverged"], OUTPUT, [0])
     return L
+
+
+def reference_dual_variables(n_arm: int, n_u: int, *, ekf: bool, q0, R_star, ekf_Q, mekf: tuple[float, float],
+                             mass_R, mass_q: tuple[float, float], mass_q_bias: float | None,
+                             schedule_end: float) -> _Layout:
+    """The variable table of a reference-dual estimator FMU (see the module docstring): the joint and dual FMUs'
+    inputs, the reference filters' tuning, and what those filters estimate."""
+    L = _Layout()
+    _inputs(L, n_arm, n_u)
+    L.add("Q0", [f"q0_BN_{a}" for a in "wxyz"], PARAMETER, q0, description="initial attitude estimate")
+    L.add("R_STAR", [f"R_star[{i + 1},{j + 1}]" for i in range(3) for j in range(3)], PARAMETER,
+          np.ravel(R_star), unit="rad2", tunable=True)
+    if ekf:
+        L.add("EKF_Q", [f"ekf_Q[{i + 1},{j + 1}]" for i in range(3) for j in range(3)], PARAMETER, np.ravel(ekf_Q),
+              description="attitude EKF process noise per cycle", unit="rad2", tunable=True)
+    else:
+        L.add("MEKF_SIGMA_V", ["mekf_sigma_v"], PARAMETER, [mekf[0]], tunable=True, positive=True)
+        L.add("MEKF_SIGMA_U", ["mekf_sigma_u"], PARAMETER, [mekf[1]], tunable=True, positive=True)
+    L.add("MASS_R", [f"mass_R[{i + 1}]" for i in range(len(mass_R))], PARAMETER, mass_R,
+          description="mass filter measurement variance (accelerometer, then encoders)", tunable=True, positive=True)
+    L.add("MASS_Q_START", ["mass_q_start"], PARAMETER, [mass_q[0]], description="mass filter process noise at start",
+          tunable=True, positive=True)
+    L.add("MASS_Q_END", ["mass_q_end"], PARAMETER, [mass_q[1]], description="mass filter process noise at the end",
+          tunable=True, positive=True)
+    if mass_q_bias is not None:
+        L.add("MASS_Q_BIAS", ["mass_q_accel_bias"], PARAMETER, [mass_q_bias], unit="m2/s4", tunable=True,
+              positive=True)
+    L.add("MASS_T_END", ["mass_schedule_end"], PARAMETER, [schedule_end], unit="s",
+          description="end of the mass filter's process-noise schedule")
+    L.add("STAR_NORM_TOL", ["star_norm_tolerance"], PARAMETER, [1e-3], tunable=True, positive=True)
+    L.add("Q", [f"q_BN_{a}" for a in "wxyz"], OUTPUT, [1, 0, 0, 0], description="attitude estimate")
+    L.add("OMEGA", [f"omega_BN_B_{a}" for a in "xyz"], OUTPUT, [0] * 3, unit="rad/s")
+    L.add("ATT_SIGMA", [f"attitude_sigma_{a}" for a in "xyz"], OUTPUT, [0] * 3, unit="rad")
+    if not ekf:
+        L.add("GYRO_BIAS", [f"gyro_bias_{a}" for a in "xyz"], OUTPUT, [0] * 3, unit="rad/s")
+    L.add("MASS", ["target_mass"], OUTPUT, [0], unit="kg")
+    L.add("MASS_SIGMA", ["target_mass_sigma"], OUTPUT, [0], unit="kg")
+    if mass_q_bias is not None:
+        L.add("ACCEL_BIAS", [f"accel_bias_{a}" for a in "xyz"], OUTPUT, [0] * 3, unit="m/s2")
+    L.add("NIS", ["nis_star", "nis_accelerations"], OUTPUT, [0] * 2)
+    L.add("N_MISSING", ["n_missing"], OUTPUT, [0])
+    L.add("N_OUTLIERS", ["n_outliers"], OUTPUT, [0])
+    L.add("RECOVERIES", ["recoveries"], OUTPUT, [0])
+    L.add("DIVERGED", ["diverged"], OUTPUT, [0])
+    return L
+
+
+def _inputs(L: _Layout, n_arm: int, n_u: int) -> None:
+    """The inputs every estimator FMU reads (their value references first)."""
+    L.add("STAR", [f"star_q_{a}" for a in "wxyz"], INPUT, [1, 0, 0, 0], description="star tracker q_BN")
+    L.add("STAR_VALID", ["star_valid"], INPUT, [0])
+    L.add("GYRO", [f"gyro_{a}" for a in "xyz"], INPUT, [0] * 3, description="gyro mean rate", unit="rad/s")
+    L.add("GYRO_VALID", ["gyro_valid"], INPUT, [0])
+    L.add("ACCEL", [f"accel_{a}" for a in "xyz"], INPUT, [0] * 3, description="mean specific force", unit="m/s2")
+    L.add("ACCEL_VALID", ["accel_valid"], INPUT, [0])
+    L.add("ENC", [f"encoder_{i + 1}" for i in range(n_arm)], INPUT, [0] * n_arm, description="joint angle", unit="rad")
+    L.add("ENC_VALID", ["encoders_valid"], INPUT, [0])
+    L.add("U", [f"u_{i + 1}" for i in range(n_u)], INPUT, [0] * n_u, description="commanded input (N or N m)")
+
+
+def _reference_dual(scenario: Scenario, case: str, profile: str):
+    """What the native main job builds for a reference-dual case (``studies.main_job.run_case``): the plan, the
+    plant copy at the initial mass with its initial state and mass sensitivity, and the dual configuration."""
+    from postcapture.dynamics.process_model import NativeProcessModel
+    from postcapture.studies.cases import CASES, dual_config
+    from postcapture.studies.main_job import initial_state_and_sensitivity
+    from postcapture.studies.setup import plan_run
+
+    spec = CASES[case]
+    plan = plan_run(scenario, profile=profile, cases=(case,))
+    model = NativeProcessModel.for_filters(scenario, variant=spec.variant, name=case)
+    theta0 = plan.initial_mass
+    model.mass = theta0
+    x0, S0 = initial_state_and_sensitivity(model, theta0)
+    cfg = dual_config(spec, plan.filter_profile, plan.profile_name, plan.tuning, scenario.n_arm, theta0)
+    if cfg.reset_rates:
+        raise ValueError(f"case {case}: reset_rates needs the next cycle's gyro sample, which an FMU cycle lacks")
+    return plan, model, x0, S0, cfg
+
+
+def _policy_lines(prefix: str, policy, gate_probability, max_m: int) -> list[str]:
+    """A filter's recovery policy and gate as C arrays (what ``FilterBase._policy`` hands the engine)."""
+    from postcapture.estimation.filter import _chi2_table
+
+    gate = np.zeros(max_m) if gate_probability is None else _chi2_table(float(gate_probability), max_m + 1)[1:]
+    bound = (_chi2_table(float(policy.nis_probability), policy.nis_window * max_m + 1).copy() if policy.nis_window
+             else np.zeros(1))
+    bound[0] = 0.0  # infinite, never read
+    ints = [policy.reject_limit, policy.nis_window, policy.max_recoveries, int(gate_probability is not None), max_m,
+            bound.size]
+    return [f"static const int {prefix}_I[6] = {_array(ints, lambda v: str(int(v)))};",
+            f"static const double {prefix}_D[3] = "
+            f"{_array([policy.inflation, policy.gyro_bias_bump, policy.recovery_window])};",
+            f"static const double {prefix}_GATE[{gate.size}] = {_array(gate)};",
+            f"static const double {prefix}_BOUND[{bound.size}] = {_array(bound)};"]
+
+
+def _reference_dual_data(scenario: Scenario, case: str, profile: str, guid: str):
+    """``(layout, pc_est_data.h text, plan)`` of a reference-dual case."""
+    plan, model, x0, S0, cfg = _reference_dual(scenario, case, profile)
+    ekf = cfg.attitude == "ekf"
+    mass = cfg.mass
+    layout = reference_dual_variables(
+        model.tangent_arm.size, model.plant.nu, ekf=ekf, q0=model.attitude(x0), R_star=cfg.ekf.R if ekf else
+        cfg.mekf.star_covariance, ekf_Q=cfg.ekf.Q, mekf=(cfg.mekf.sigma_v, cfg.mekf.sigma_u), mass_R=mass.R_diag,
+        mass_q=(mass.q_start, mass.q_end), mass_q_bias=mass.q_accel_bias if mass.accel_bias else None,
+        schedule_end=float(plan.t_grid[-1]))
+    return layout, _reference_dual_header(plan, model, x0, S0, cfg, layout, guid), plan
+
+
+def _reference_dual_header(plan, model, x0, S0, cfg, layout: _Layout, guid: str) -> str:
+    """The text of ``pc_est_data.h`` for a reference-dual case."""
+    from postcapture.config.schema import orbit_mean_motion
+    from postcapture.core.units import DEG
+    from postcapture.dynamics.build import build_system
+    from postcapture.dynamics.integrators import TABLEAUX
+    from postcapture.dynamics.packing import pack
+    from postcapture.estimation.filter import RecoveryPolicy
+    from postcapture.studies.cases import CASES
+
+    sc = plan.scenario
+    packed = pack(build_system(sc, CASES[model.name].variant))
+    tab = TABLEAUX[sc.estimation.integrator]
+    s = tab.stages
+    dt = float(sc.estimation.filter_step)
+    n_steps = int(round(dt / model.step))
+    ekf = cfg.attitude == "ekf"
+    mass = cfg.mass
+    smap = mass.sigmoid
+    mekf_P0 = np.asarray(cfg.mekf_P0, dtype=float)
+    ints = lambda v: str(int(v))  # noqa: E731
+    lines = [
+        "/* Generated by postcapture.studies.estimator_fmu: the data of one reference-dual estimator FMU. Do not edit. */",
+        "#ifndef PC_EST_DATA_H", "#define PC_EST_DATA_H", "#include <math.h>",
+        f"#define PCE_GUID {_c_string(guid)}", "#define PCE_SCHEME 2", f"#define PCE_ATT_EKF {int(ekf)}",
+        f"#define PCE_NQ {model.nq}", f"#define PCE_NV {model.nv}", f"#define PCE_NP {model.params.size}",
+        f"#define PCE_NU {model.plant.nu}", f"#define PCE_NARM {model.tangent_arm.size}",
+        f"#define PCE_NZ_PLANT {model.plant.nz}", f"#define PCE_STEP {_num(model.step)}",
+        f"#define PCE_NSTEPS {n_steps}", f"#define PCE_DT {_num(dt)}", f"#define PCE_STAGES {s}",
+        f"#define PCE_PANEL_MASS {_num(sum(p.mass for p in sc.target.panels))}",
+        f"#define PCE_MEAN_MOTION {_num(orbit_mean_motion(sc, 'filters'))}",
+        f"#define PCE_FROZEN_JACOBIAN {int(model.jacobian == 'first_step')}",
+        f"#define PCE_MASS_NB {3 if mass.accel_bias else 0}", f"#define PCE_MASS_X0 {_num(smap.inverse(plan.initial_mass))}",
+        f"#define PCE_MASS_P0 {_num(mass.P0)}", f"#define PCE_MASS_P0_BIAS {_num(mass.P0_accel_bias)}",
+        f"#define PCE_SIG_A {_num(smap.a)}", f"#define PCE_SIG_B {_num(smap.b)}", f"#define PCE_SIG_C {_num(smap.c)}",
+        f"#define PCE_MASS_TOTAL {int(mass.sensitivity == 'total')}", f"#define PCE_SHIFT_STATE {int(cfg.shift_state)}",
+        f"#define PCE_MASS_AWARE_Q {int(cfg.mass_aware_q)}",
+        f"#define PCE_MEKF_M {mekf_P0.shape[0]}", f"#define PCE_MEKF_REACQUIRE_BIAS {_num(DEG)}",
+        f"#define PCE_NREAL {len(layout.variables)}",
+    ]
+    lines += [f"#define PCE_VR_{block} {start}" for block, start in layout.blocks.items()]
+    if ekf:
+        lines += _policy_lines("PCE_POL_ATT", cfg.ekf.recovery, cfg.ekf.gate_probability, 3)
+    else:
+        lines += _policy_lines("PCE_POL_ATT", RecoveryPolicy(), cfg.mekf.gate_probability, 3)
+    lines += _policy_lines("PCE_POL_MASS", mass.recovery, mass.gate_probability, mass.R_diag.size)
+    lines += [
+        f"static const double PCE_TAB_A[{s}][{s}] = {{" + ", ".join(_array(r) for r in tab.A) + "};",
+        f"static const double PCE_TAB_B[{s}] = {_array(tab.b)};",
+        f"static const double PCE_TAB_C[{s}] = {_array(tab.c)};",
+        f"static const int PCE_IB[{packed.ints.size}] = {_array(packed.ints, ints)};",
+        f"static const double PCE_DB[{packed.doubles.size}] = {_array(packed.doubles)};",
+        f"static const int PCE_ARM_V[{max(1, model.tangent_arm.size)}] = {_array(model.tangent_arm, ints)};",
+        f"static const double PCE_R_ACC[3] = {_array(model.accelerometer_position)};",
+        f"static const double PCE_X0[{x0.size}] = {_array(x0)};",
+        f"static const double PCE_S0[{S0.size}] = {_array(S0)};",
+        f"static const double PCE_P0[{model.params.size}] = {_array(model.params)};",
+        f"static const double PCE_EKF_P0[9] = {_array(cfg.ekf.P0)};",
+        f"static const double PCE_MEKF_P0[{mekf_P0.size}] = {_array(mekf_P0)};",
+        f"static const double PCE_START[{len(layout.variables)}] = {_array([v.start for v in layout.variables])};",
+        f"static const int PCE_CAUSALITY[{len(layout.variables)}] = "
+        f"{_array([v.causality for v in layout.variables], ints)};",
+        f"static const int PCE_TUNABLE[{len(layout.variables)}] = {_array([v.tunable for v in layout.variables], ints)};",
+        f"static const int PCE_POSITIVE[{len(layout.variables)}] = "
+        f"{_array([v.positive for v in layout.variables], ints)};",
+        f"static const char* const PCE_NAMES[{len(layout.variables)}] = {{\n    "
+        + ",\n    ".join(_c_string(v.name) for v in layout.variables) + "\n};",
+        "#endif",
+    ]
+    return "\n".join(lines) + "\n"
 
 
 def _filters(scenario: Scenario, case: str, profile: str):
@@ -304,8 +495,9 @@ def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, 
         A scenario, or a built-in name or TOML path.
     out_path : str or Path
         The ``.fmu`` to write.
-    case : {"joint", "dual"}
-        The scheme (:mod:`postcapture.estimation.schemes`).
+    case : {"joint", "dual", "ekf_flexible", "mekf_flexible"}
+        The scheme: a recommended one (:mod:`postcapture.estimation.schemes`) or the reference's dual scheme
+        with its EKF or MEKF on the flexible model (:mod:`postcapture.estimation.dual`).
     profile : {"reference", "realistic"}
         The sensor profile whose tuning the FMU carries (its defaults; tunable).
     model_identifier : str, optional
@@ -321,7 +513,7 @@ def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, 
     Raises
     ------
     ValueError
-        For a case that is not a recommended scheme, or an FMI version other than 2 or 3.
+        For a case that has no estimator FMU, or an FMI version other than 2 or 3.
     FMIError
         When the C compiler is missing or compilation fails.
     """
@@ -342,31 +534,35 @@ def export_estimator_fmu(scenario: Scenario | str | Path, out_path: str | Path, 
         scenario = load_scenario(scenario)
     out_path = check_output_file(out_path)
     ident = _identifier(model_identifier or f"{scenario.name}_{case}_estimator")
-    say("building the filters (the plan, its model noise and the prior)")
-    plan, model, aug, cfg, R, gate, window = _filters(scenario, case, profile)
-    dual = case == "dual"
-    sig = {"gyro": float(np.sqrt(R["gyro"][0, 0])), "accelerometer": float(np.sqrt(R["accelerometer"][0, 0])),
-           "encoders": float(np.sqrt(R["encoders"][0, 0])), "gyro_walk": aug.tuning.sigma_gyro_bias_walk,
-           "accel_walk": aug.tuning.sigma_accel_bias_walk}
-    q0 = model.attitude(model.initial_state())
-    layout = estimator_variables(aug.i_arm.size, model.plant.nu, model.param_names, dual=dual, q0=q0,
-                                 R_star=R["star_tracker"], sigmas=sig, model_noise=aug.setup.q_noise,
-                                 mekf=(cfg.mekf.sigma_v, cfg.mekf.sigma_u))
     from postcapture._version import __version__
 
     key = hashlib.sha256("|".join([scenario.model_dump_json(), case, profile, ident, __version__]
                                   + ([] if fmi_version == 2 else [version.name])).encode())
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "postcapture-estimator:" + key.hexdigest())) + "}"
+    say("building the filters (the plan, its model noise and the prior)")
+    if case in REFERENCE_DUAL_CASES:
+        layout, header, plan = _reference_dual_data(scenario, case, profile, guid)
+    else:
+        plan, model, aug, cfg, R, gate, window = _filters(scenario, case, profile)
+        dual = case == "dual"
+        sig = {"gyro": float(np.sqrt(R["gyro"][0, 0])), "accelerometer": float(np.sqrt(R["accelerometer"][0, 0])),
+               "encoders": float(np.sqrt(R["encoders"][0, 0])), "gyro_walk": aug.tuning.sigma_gyro_bias_walk,
+               "accel_walk": aug.tuning.sigma_accel_bias_walk}
+        q0 = model.attitude(model.initial_state())
+        layout = estimator_variables(aug.i_arm.size, model.plant.nu, model.param_names, dual=dual, q0=q0,
+                                     R_star=R["star_tracker"], sigmas=sig, model_noise=aug.setup.q_noise,
+                                     mekf=(cfg.mekf.sigma_v, cfg.mekf.sigma_u))
+        header = _header(plan, model, aug, cfg, R, gate, window, layout, guid, dual)
     with scratch_folder("postcapture_estimator_fmu") as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
         src.mkdir(parents=True)
         say("writing the sources")
-        (src / "pc_est_data.h").write_text(_header(plan, model, aug, cfg, R, gate, window, layout, guid, dual))
+        (src / "pc_est_data.h").write_text(header)
         for name, text in source_files().items():
             (src / name).write_text(text)
         runtime = resources.files("postcapture.fmi") / "csrc"
-        for name in (*_RUNTIME, _WRAPPERS[fmi_version], version.wrapper_common):
+        for name in (*_RUNTIME, _CYCLE[case], _WRAPPERS[fmi_version], version.wrapper_common):
             (src / name).write_text((runtime / name).read_text())
         c_code = Path(fmpy.__file__).parent / "c-code"
         for name in version.headers:

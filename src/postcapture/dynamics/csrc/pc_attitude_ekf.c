@@ -45,6 +45,8 @@ pc_atekf_t* pc_atekf_create(const double* P0, const double* Q, double reacquire_
     return f;
 }
 
+void pc_atekf_retune(pc_atekf_t* f, const double* Q) { memcpy(f->Q, Q, sizeof f->Q); }
+
 /* P <- sym(Fa P Fa^T + Q (+ Q_extra)); t: the prediction's end */
 int pc_atekf_predict(pc_atekf_t* f, double t, const double* Fa, const double* Q_extra) {
     double Q[9];

@@ -123,6 +123,7 @@ PC_API pc_atekf_t* pc_atekf_create(const double* P0, const double* Q, double rea
 PC_API int pc_atekf_predict(pc_atekf_t* f, double t, const double* Fa, const double* Q_extra);
 PC_API int pc_atekf_update(pc_atekf_t* f, double t, const double* q_meas, const double* q_est, const double* R,
                            double* dtheta, double* K, pc_update_t* res);
+PC_API void pc_atekf_retune(pc_atekf_t* f, const double* Q);
 
 /* sigmoid mass filter (pc_mass_filter.c): theta = b + (a - b) / (1 + exp(-c x)).
  * state: [x, accelerometer bias (n_bias), P ((1 + n_bias)^2)] */
@@ -135,6 +136,24 @@ PC_API double pc_massf_noise(const pc_massf_t* f, double t); /* the variance the
 PC_API int pc_massf_update(pc_massf_t* f, double t, int m, const double* nu, const double* dz, const double* R,
                            pc_update_t* res);
 PC_API void pc_sigmoid(double a, double b, double c, double x, double* theta, double* slope);
+PC_API void pc_massf_estimate(const pc_massf_t* f, double* theta, double* sigma); /* theta and its 1-sigma */
+PC_API void pc_massf_retune(pc_massf_t* f, double q_start, double q_end, double q_bias);
+
+/* the reference's dual scheme between its filters and its plant copy (pc_refdual.c; estimation/dual.py):
+ * S1 = F S + g; s_att <- (I - K) s_att after an accepted star-tracker update; the mass uncertainty's process
+ * noise on the attitude Q = d d^T with d = s_rate dt sigma; the devices' prediction over a step from the plant
+ * states at its ends and its derivative along the sensitivities s0, s1 (attitude, velocity, rate: 9 each) and
+ * s1_arm (z, dz: 3 + n_arm) */
+PC_API void pc_rdual_propagate(int n, const double* F, const double* g, const double* S, double* S1);
+PC_API void pc_rdual_lean(const double* K, double* s_att);
+PC_API void pc_rdual_mass_noise(const double* s_rate, double dt, double sigma, double* Q);
+PC_API void pc_rdual_devices(const double* q0, const double* q1, const double* v0, const double* w0, const double* v1,
+                             const double* w1, const double* r, double dt, const double* s0, const double* s1,
+                             int n_arm, const double* angles1, const double* s1_arm, double* z, double* dz);
+/* a target's ten inertial parameters: d pi / d m at a fixed centre of mass and inertia about it, and pi with the
+ * hub's mass set to m (PC_ERR_ARG unless m > 0 and pi[0] > 0) */
+PC_API void pc_dmass_direction(const double* pi, double* d);
+PC_API int pc_target_mass(const double* pi, double m, double* out);
 
 /* augmented EKF (pc_augmented.c) over a plant instance (it borrows m and d for its lifetime), or over a plant
  * that steps outside (pc_aug_create_external: another process model, an FMU; a free-flyer root with Euclidean

@@ -82,6 +82,20 @@ double pc_massf_noise(const pc_massf_t* f, double t) {
     return f->q_start + a * (f->q_end - f->q_start);
 }
 
+/* the mass estimate and its 1-sigma through the map's slope */
+void pc_massf_estimate(const pc_massf_t* f, double* theta, double* sigma) {
+    double slope;
+    pc_sigmoid(f->a, f->b, f->c, f->s[0], theta, &slope);
+    *sigma = fabs(slope) * sqrt(f->P[0]);
+}
+
+/* new process noises: the schedule's ends and the bias's walk */
+void pc_massf_retune(pc_massf_t* f, double q_start, double q_end, double q_bias) {
+    f->q_start = q_start;
+    f->q_end = q_end;
+    f->q_bias = q_bias;
+}
+
 /* the scheduled variance at t, and the bias's walk */
 int pc_massf_predict(pc_massf_t* f, double t) {
     int i;

@@ -216,17 +216,6 @@ int pc_est_retune(pc_est_t* E) {
 }
 
 /* ------------------------------------------------------------------------------------ one cycle */
-/* an input sample as the filters read it: NaN when invalid; non-finite components counted as missing */
-static void sample(pc_est_t* E, int vr, int n, int vr_valid, double* out) {
-    int i, bad = 0, valid = E->r[vr_valid] > 0.5;
-    for (i = 0; i < n; i++) {
-        double v = E->r[vr + i];
-        if (!(fabs(v) < INFINITY)) bad = 1;
-        out[i] = valid && fabs(v) < INFINITY ? v : NAN;
-    }
-    if (valid && bad) E->r[PCE_VR_N_MISSING] += 1.0;
-}
-
 static void diag_R(double sigma, int n, double* R) {
     int i;
     for (i = 0; i < n * n; i++) R[i] = 0.0;
@@ -238,32 +227,6 @@ static int aug_update(pc_est_t* E, int kind, double t1, const double* value, con
     int err = pc_aug_update(E->aug, kind, t1, value, R, &res);
     if (!err && !res.missing && res.accepted) E->r[PCE_VR_NIS + slot] = res.nis;
     return err;
-}
-
-/* the cycle's inputs as the filters read them (a star-tracker quaternion off unit norm refused); the commanded
- * inputs into the plant copy */
-static int read_inputs(pc_est_t* E, double* star, double* gyro, double* accel, double* enc) {
-    double u[PCE_NU], *r = E->r;
-    int i;
-    sample(E, PCE_VR_STAR, 4, PCE_VR_STAR_VALID, star);
-    if (fabs(star[0]) < INFINITY) { /* a quaternion far from unit norm is not a star tracker's */
-        double nq = sqrt(star[0] * star[0] + star[1] * star[1] + star[2] * star[2] + star[3] * star[3]);
-        if (!(fabs(nq - 1.0) <= r[PCE_VR_STAR_NORM_TOL])) {
-            for (i = 0; i < 4; i++) star[i] = NAN;
-            r[PCE_VR_N_OUTLIERS] += 1.0;
-        }
-    }
-    sample(E, PCE_VR_GYRO, 3, PCE_VR_GYRO_VALID, gyro);
-    sample(E, PCE_VR_ACCEL, 3, PCE_VR_ACCEL_VALID, accel);
-    sample(E, PCE_VR_ENC, PCE_NARM, PCE_VR_ENC_VALID, enc);
-    for (i = 0; i < PCE_NU; i++) {
-        u[i] = r[PCE_VR_U + i];
-        if (!(fabs(u[i]) < INFINITY)) {
-            snprintf(E->message, sizeof E->message, "commanded input %d is not finite (%g)", i + 1, u[i]);
-            return PC_ERR_ARG;
-        }
-    }
-    return pc_set_input_offset(E->m, E->d, u);
 }
 
 /* the dual's attitude filter: the MEKF on the last valid gyro sample, then the star tracker */
@@ -299,7 +262,7 @@ int pc_est_cycle(pc_est_t* E, double t, double h) {
     double star[4], gyro[3], accel[3], enc[PCE_NARM > 0 ? PCE_NARM : 1];
     int i, err;
     for (i = 0; i < 4; i++) E->r[PCE_VR_NIS + i] = -1.0; /* none (a master such as OMSimulator refuses NaN) */
-    if ((err = read_inputs(E, star, gyro, accel, enc))) return err;
+    if ((err = pc_est_read_inputs(E, star, gyro, accel, enc))) return err;
     if (PCE_DUAL && (err = mekf_cycle(E, t, h, gyro, star))) {
         snprintf(E->message, sizeof E->message, "the MEKF: %s", pc_filter_message(E->mekf));
         return err;
@@ -334,25 +297,6 @@ void pc_est_save(const pc_est_t* E, double* o) {
     if (E->mekf) pc_filter_save(E->mekf, o + pc_filter_save_size(E->aug));
 }
 
-/* a unit quaternion (|q| within 1e-6 of 1, finite) */
-static int unit(const double* q) {
-    double n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-    return fabs(n) < INFINITY && fabs(sqrt(n) - 1.0) < 1e-6;
-}
-
-/* a covariance: finite, symmetric to round-off, non-negative diagonal */
-static int covariance(const double* P, int n) {
-    int i, j;
-    for (i = 0; i < n; i++) {
-        if (!(P[(size_t)i * n + i] >= 0.0) || !(P[(size_t)i * n + i] < INFINITY)) return 0;
-        for (j = 0; j < i; j++) {
-            double a = P[(size_t)i * n + j], b = P[(size_t)j * n + i];
-            if (!(fabs(a) < INFINITY) || !(fabs(a - b) <= 1e-9 * (fabs(a) + fabs(b)) + 1e-300)) return 0;
-        }
-    }
-    return 1;
-}
-
 int pc_est_load(pc_est_t* E, const double* o) {
     size_t na = pc_filter_save_size(E->aug);
     const double* a = o + HEAD + PCE_NREAL;
@@ -363,11 +307,11 @@ int pc_est_load(pc_est_t* E, const double* o) {
     pc_filter_state(E->aug, &n_state);
     st = a + na - n_state; /* the state array ends the filter's save */
     q[0] = st[6]; q[1] = st[3]; q[2] = st[4]; q[3] = st[5];
-    if (!unit(q) || !unit(st + PCE_NX + 6 + PCE_NCAL + PCE_NETA)) {
+    if (!pc_est_unit(q) || !pc_est_unit(st + PCE_NX + 6 + PCE_NCAL + PCE_NETA)) {
         snprintf(E->message, sizeof E->message, "the state's attitude or clone quaternion is not a unit quaternion");
         return PC_ERR_ARG;
     }
-    if (!covariance(st + n_state - (size_t)N * N, N)) {
+    if (!pc_est_covariance(st + n_state - (size_t)N * N, N)) {
         snprintf(E->message, sizeof E->message, "the state's covariance is not finite or not symmetric");
         return PC_ERR_ARG;
     }
@@ -376,11 +320,11 @@ int pc_est_load(pc_est_t* E, const double* o) {
         const double* ms;
         pc_filter_state(E->mekf, &nm);
         ms = a + na + pc_filter_save_size(E->mekf) - nm;
-        if (!unit(ms)) {
+        if (!pc_est_unit(ms)) {
             snprintf(E->message, sizeof E->message, "the state's MEKF quaternion is not a unit quaternion");
             return PC_ERR_ARG;
         }
-        if (!covariance(ms + nm - (size_t)PCE_MEKF_M * PCE_MEKF_M, PCE_MEKF_M)) {
+        if (!pc_est_covariance(ms + nm - (size_t)PCE_MEKF_M * PCE_MEKF_M, PCE_MEKF_M)) {
             snprintf(E->message, sizeof E->message, "the state's MEKF covariance is not finite or not symmetric");
             return PC_ERR_ARG;
         }

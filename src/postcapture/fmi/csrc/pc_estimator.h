@@ -1,7 +1,9 @@
 /*
- * postcapture estimator FMU: one filter cycle of a recommended scheme over the engine's filters, independent
- * of the FMI version (pc_est_fmi2.c wraps it). The data of one export (the plant's packed model, the
- * filters' prior and tuning, the variables) come from the generated pc_est_data.h.
+ * postcapture estimator FMU: one filter cycle of an estimation scheme over the engine's filters, independent
+ * of the FMI version (pc_est_fmi2.c wraps it): a recommended scheme (pc_estimator.c: joint, dual) or the
+ * reference's dual scheme (pc_est_refdual.c: ekf_flexible, mekf_flexible), one of the two per FMU. The data
+ * of one export (the plant's packed model, the filters' prior and tuning, the variables) come from the
+ * generated pc_est_data.h; what both cycles read from the inputs is pc_est_inputs.c's.
  */
 #ifndef PC_ESTIMATOR_H
 #define PC_ESTIMATOR_H
@@ -23,6 +25,10 @@ typedef struct {
     pc_data_t* d;
     pc_aug_t* aug;
     pc_mekf_t* mekf;
+    pc_atekf_t* atekf; /* the reference's dual: its attitude EKF (or the MEKF above) and its mass filter */
+    pc_massf_t* massf;
+    double x[PCE_NX], S[2 * PCE_NV]; /* ... their plant copy's state and its sensitivity to the mass */
+    double* work;                    /* ... and its step's Jacobians (allocated once) */
     char message[512];
 } pc_est_t;
 
@@ -35,5 +41,14 @@ int pc_est_retune(pc_est_t* E);                     /* the tunable settings into
 size_t pc_est_state_size(const pc_est_t* E);
 void pc_est_save(const pc_est_t* E, double* buf);
 int pc_est_load(pc_est_t* E, const double* buf); /* refuses a state with a bad quaternion or covariance */
+
+/* pc_est_inputs.c: an input sample as the filters read it (NaN when its flag is off; a non-finite component
+ * missing and counted in n_missing); the cycle's four measurements (a star-tracker quaternion off unit norm
+ * refused as an outlier) with the commanded inputs set into the plant copy; a unit quaternion (within 1e-6,
+ * finite); a covariance (finite, symmetric to round-off, non-negative diagonal) */
+void pc_est_sample(pc_est_t* E, int vr, int n, int vr_valid, double* out);
+int pc_est_read_inputs(pc_est_t* E, double* star, double* gyro, double* accel, double* enc);
+int pc_est_unit(const double* q);
+int pc_est_covariance(const double* P, int n);
 
 #endif
