@@ -128,8 +128,8 @@ def native_estimates(result) -> np.ndarray:
 
 # which plant output feeds which estimator input in the SSP (estimator_ssp.scheme_connections)
 def _pairs(n_arm: int):
-    pairs = [(f"q_BN_{a}", f"star_q_{a}") for a in "wxyz"] + [(f"omega_BN_B_{a}", f"gyro_{a}") for a in "xyz"]
-    pairs += [(f"accel_B_{a}", f"accel_{a}") for a in "xyz"]
+    pairs = [(f"q_BN_{a}", f"star_q_{a}") for a in "wxyz"] + [(f"gyro_mean_{a}", f"gyro_{a}") for a in "xyz"]
+    pairs += [(f"accel_mean_{a}", f"accel_{a}") for a in "xyz"]
     return pairs + [(f"arm_q_{i + 1}", f"encoder_{i + 1}") for i in range(n_arm)]
 
 
