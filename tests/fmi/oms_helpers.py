@@ -137,8 +137,9 @@ def compose(plant_fmu: Path, estimator_fmu: Path, step: float, n: int, *, gauss_
             extra=()) -> tuple[np.ndarray, float | None]:
     """The plant and the estimator FMUs run side by side in fmpy, written from the FMI calls alone: every
     valid flag 1, commanded inputs 0, and at each ``t_k`` the estimator's sensor inputs set from the plant's
-    outputs at ``t_k`` before both step (a Jacobi master, as OMSimulator's), or with
-    ``gauss_seidel`` from its outputs at ``t_k+1`` (the plant steps first). Returns the :data:`ESTIMATES`
+    outputs at ``t_k`` before both step (a Jacobi master, as OMSimulator's; the SSP's plant runs one period
+    ahead, so those are the sensors of ``[t_k, t_k+1]``), or with ``gauss_seidel`` from its outputs at
+    ``t_k+1`` (the plant steps first). Returns the :data:`ESTIMATES`
     and the ``extra`` outputs (rows) at ``t_0 .. t_m``, and the time of the cycle the estimator refused
     (``t_m``; None when it ran all ``n``). Time runs as in OMSimulator, ``t_k+1 = t_k + step`` (the plant's
     embedded manoeuvre is a function of time: ``k step`` instead moves it by a few 1e-15 s, which a filter

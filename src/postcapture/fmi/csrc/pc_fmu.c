@@ -27,8 +27,8 @@
  *
  * PC_LEAD > 0 runs the plant that far ahead of the master's clock: leaving initialisation flies
  * [t0, t0 + PC_LEAD] (the sampled sensors then hold its means), and a step from the master's t flies
- * [t + PC_LEAD, t + PC_LEAD + H]; the excitation, the orbit's field and the time output follow the plant's
- * time, fmi2GetRealStatus' last successful time the master's.
+ * [t + PC_LEAD, t + PC_LEAD + H]; the excitation and the orbit's field follow the plant's time, the last
+ * successful time (fmi2GetRealStatus) and FMI 3.0's independent variable time the master's.
  *
  * Checks: every real set must be finite and within PC_MAX_ABS (parameters at least their bound); a
  * communication step finite and in (0, PC_MAX_COMM_STEP]; a corrected state's quaternion within
@@ -289,7 +289,7 @@ int pc_fmu_get(pc_fmu_t* F, const char* function, const unsigned* vr, size_t n, 
         else if (r == PC_VR_JVALID) value[k] = F->c.jac_valid;
 #endif
 #ifdef PC_VR_TIME
-        else if (r == PC_VR_TIME) value[k] = F->c.time;
+        else if (r == PC_VR_TIME) value[k] = F->c.last_ok_time; /* the master's time (the plant's less PC_LEAD) */
 #endif
         else return pc_fmu_fail(F, function, "unknown value reference %u", r);
     }
