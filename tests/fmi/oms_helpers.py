@@ -128,8 +128,8 @@ def native_estimates(result) -> np.ndarray:
 
 # which plant output feeds which estimator input in the SSP (estimator_ssp.scheme_connections)
 def _pairs(n_arm: int):
-    pairs = [(f"q_BN_{a}", f"star_q_{a}") for a in "wxyz"] + [(f"omega_BN_B_{a}", f"gyro_{a}") for a in "xyz"]
-    pairs += [(f"accel_B_{a}", f"accel_{a}") for a in "xyz"]
+    pairs = [(f"q_BN_{a}", f"star_q_{a}") for a in "wxyz"] + [(f"gyro_mean_{a}", f"gyro_{a}") for a in "xyz"]
+    pairs += [(f"accel_mean_{a}", f"accel_{a}") for a in "xyz"]
     return pairs + [(f"arm_q_{i + 1}", f"encoder_{i + 1}") for i in range(n_arm)]
 
 
@@ -137,8 +137,9 @@ def compose(plant_fmu: Path, estimator_fmu: Path, step: float, n: int, *, gauss_
             extra=()) -> tuple[np.ndarray, float | None]:
     """The plant and the estimator FMUs run side by side in fmpy, written from the FMI calls alone: every
     valid flag 1, commanded inputs 0, and at each ``t_k`` the estimator's sensor inputs set from the plant's
-    outputs at ``t_k`` before both step (a Jacobi master, as OMSimulator's), or with
-    ``gauss_seidel`` from its outputs at ``t_k+1`` (the plant steps first). Returns the :data:`ESTIMATES`
+    outputs at ``t_k`` before both step (a Jacobi master, as OMSimulator's; the SSP's plant runs one period
+    ahead, so those are the sensors of ``[t_k, t_k+1]``), or with ``gauss_seidel`` from its outputs at
+    ``t_k+1`` (the plant steps first). Returns the :data:`ESTIMATES`
     and the ``extra`` outputs (rows) at ``t_0 .. t_m``, and the time of the cycle the estimator refused
     (``t_m``; None when it ran all ``n``). Time runs as in OMSimulator, ``t_k+1 = t_k + step`` (the plant's
     embedded manoeuvre is a function of time: ``k step`` instead moves it by a few 1e-15 s, which a filter

@@ -167,3 +167,31 @@ def test_declared_dependencies_cover_every_nonzero_partial(setup, envisat_fmu):
                   if J[i, j] != 0.0 and k not in listed[u]]
     assert undeclared == []
     assert sum(len(listed[u]) for u in unknowns) < 0.6 * len(unknowns) * len(known)  # and they are selective
+
+
+def test_the_sampled_sensors_partials(envisat_fmu, tmp_path):
+    """``gyro_mean_*`` and ``accel_mean_*`` (discrete): before the first step they are the body rate and the
+    acceleration (free space: no tidal field), with those partials; after a step they are fixed, partials 0."""
+    md = fmpy.read_model_description(str(envisat_fmu.path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(envisat_fmu.path), str(tmp_path)),
+                    modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    states = [v.valueReference for v in md.modelVariables if v.name.startswith(("q[", "v["))]
+    now = [vr[f"omega_BN_B_{a}"] for a in "xyz"] + [vr[f"accel_B_{a}"] for a in "xyz"]
+    sensed = [vr[f"gyro_mean_{a}"] for a in "xyz"] + [vr[f"accel_mean_{a}"] for a in "xyz"]
+
+    def jacobian(unknowns):
+        return np.array([fmu.getDirectionalDerivative(unknowns, states, list(np.eye(len(states))[j]))
+                         for j in range(len(states))]).T
+
+    assert np.array_equal(fmu.getReal(sensed), fmu.getReal(now))
+    before = jacobian(sensed)
+    assert np.abs(before).max() > 0.0 and np.array_equal(before, jacobian(now))
+    fmu.doStep(0.0, 0.1)
+    assert not jacobian(sensed).any()
+    fmu.terminate()
+    fmu.freeInstance()

@@ -292,14 +292,15 @@ def _export_ssp(args, scenario) -> int:
                                       progress=lambda msg, *rest: shown.phase(msg))
     info = {"ssp": str(report.path), "fmi_version": "2.0", "case": report.case, "profile": report.profile,
             "step_s": report.period, "n_cycles": report.n_cycles, "stop_time_s": report.stop_time,
-            "n_connections": len(report.connections),
+            "n_connections": len(report.connections), "plant_lead_s": report.period,
             "omsimulator": f"OMSimulator --stopTime={report.stop_time!r} {report.path}"}
     if args.json:
         _print_json(info)
     else:
         _echo(f"exported {info['ssp']}: SSP 1.0, the plant and the {report.case} estimator ({report.profile} "
               f"profile) as FMI 2.0 co-simulation FMUs, {info['n_connections']} connections, one "
-              f"{report.period:g} s step per filter cycle")
+              f"{report.period:g} s step per filter cycle; the plant runs one step ahead of the master, so that "
+              f"OMSimulator's (Jacobi) hands each cycle the sensors of that cycle")
         _echo(f"run it over {report.n_cycles} cycles with: {info['omsimulator']}")
     return 0
 

@@ -9,8 +9,8 @@ and ``resources/estimator.fmu`` the recommended case's estimator
 What is connected (plant output -> estimator input):
 
 - ``q_BN_w/x/y/z`` -> ``star_q_w/x/y/z`` (the star tracker);
-- ``omega_BN_B_x/y/z`` -> ``gyro_x/y/z`` (the gyro);
-- ``accel_B_x/y/z`` -> ``accel_x/y/z`` (the accelerometer);
+- ``gyro_mean_x/y/z`` -> ``gyro_x/y/z`` (the gyro: the mean body rate over the plant's last step);
+- ``accel_mean_x/y/z`` -> ``accel_x/y/z`` (the accelerometer: the mean specific force over it);
 - ``arm_q_i`` -> ``encoder_i`` (the arm's encoders);
 - the system's own inputs ``force_x/y/z``, ``torque_x/y/z`` and ``joint_i`` (commanded force, torque and
   joint torques, zero unless a master sets them) feed both the plant's inputs of the same name and the
@@ -20,17 +20,22 @@ What is connected (plant output -> estimator input):
 The plant's parameter inputs (``target.*``, the factors), its state reset (``x_corr``, ``reset``) and its
 Jacobian request stay at their start values: the plant is the truth, nothing flows back into it.
 
-How the sensor semantics differ from the native main job's sensors:
+The sensors and the master's semantics:
 
-- the plant's outputs are noise-free, bias-free and instantaneous. The estimator expects sampled sensors: the
-  gyro's *mean rate* and the accelerometer's *mean specific force* over the cycle (increments divided by the
-  period), the star tracker and the encoders *at the cycle's end*;
-- OMSimulator's fixed-step master is a Jacobi scheme: every FMU steps from ``t_k`` to ``t_k+1`` with the
-  inputs read at ``t_k``, then the outputs at ``t_k+1`` are passed on. So the cycle ``[t_k, t_k+1]`` of the
-  estimator sees the plant at ``t_k``: the star tracker and the encoders one cycle late, the gyro and the
-  accelerometer as their values at the cycle's start instead of their means over it;
-- the accelerometer output is the acceleration of the sensor point in B; in orbit the specific force also
-  holds the gravity-gradient term, below a thousandth of the noise here.
+- the plant's sensor outputs are the native main job's sensors (``studies/sensing.py``), noise-free and
+  bias-free: the gyro's *mean rate* and the accelerometer's *mean specific force* (less the tidal field of
+  the orbit the plant flies, if any) over the plant's last step, computed in the FMU by the engine's own
+  functions; the star tracker (``q_BN``) and the encoders (``arm_q``) are its state at the step's end;
+- OMSimulator's fixed-step master (``oms_solver_wc_ma``, ``SystemWC::doStep``) is a Jacobi scheme and has no
+  other ordering: every FMU steps from ``t_k`` to ``t_k+1`` with the inputs set at ``t_k``, then every
+  connection passes the outputs at ``t_k+1`` on. The estimator's cycle ``[t_k, t_k+1]`` reads its inputs
+  before it and expects the sensors of that cycle (the star tracker and the encoders at its end, the means
+  over it): a plant at the master's time would hand it those of the cycle before. So the plant FMU is
+  exported with ``lead`` = the filter's period (:func:`postcapture.fmi.export_fmu`): it flies ``[t0, t1]``
+  when leaving initialisation and stays one period ahead of the master, so that at the master's ``t_k`` its
+  outputs are the sensors of ``[t_k, t_k+1]``. The plant's own results in the archive's output are thus those
+  at the master's time plus one period. The commanded inputs (zero here) reach the estimator for the cycle
+  ``[t_k, t_k+1]`` and the plant for its ``[t_k+1, t_k+2]``: one cycle apart.
 
 The communication step is the filter's period (the estimator refuses any other step); the plant integrates
 each in its own internal steps. OMSimulator accumulates its time (``t += step``), so after ``n`` cycles it
@@ -111,8 +116,8 @@ def scheme_connections(plant: dict, estimator: dict) -> tuple[list[SSPConnection
         When the plant's encoders or commanded inputs do not match the estimator's in number.
     """
     cons = [SSPConnection("plant", f"q_BN_{a}", "estimator", f"star_q_{a}") for a in "wxyz"]
-    cons += [SSPConnection("plant", f"omega_BN_B_{a}", "estimator", f"gyro_{a}") for a in "xyz"]
-    cons += [SSPConnection("plant", f"accel_B_{a}", "estimator", f"accel_{a}") for a in "xyz"]
+    cons += [SSPConnection("plant", f"gyro_mean_{a}", "estimator", f"gyro_{a}") for a in "xyz"]
+    cons += [SSPConnection("plant", f"accel_mean_{a}", "estimator", f"accel_{a}") for a in "xyz"]
     encoders = _numbered(estimator, "encoder_", "input")
     joints = _numbered(plant, "arm_q_", "output")
     if len(encoders) != len(joints):
@@ -149,7 +154,7 @@ def export_estimator_ssp(scenario: Scenario | str | Path, out_path: str | Path, 
     profile : {"reference", "realistic"}
         The sensor profile whose tuning the estimator carries.
     variant, panel_segments, directional_derivatives, step_jacobian
-        The plant FMU's options (:func:`postcapture.fmi.export_fmu`).
+        The plant FMU's options (:func:`postcapture.fmi.export_fmu`; its ``lead`` is the filter's period).
     progress : callable(str), optional
 
     Returns
@@ -176,12 +181,12 @@ def export_estimator_ssp(scenario: Scenario | str | Path, out_path: str | Path, 
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
     with scratch_folder("postcapture_ssp") as tmp:
-        say("exporting the plant FMU")
-        plant = export_fmu(scenario, Path(tmp) / "plant.fmu", variant=variant, fmi_version=2,
-                           directional_derivatives=directional_derivatives, step_jacobian=step_jacobian,
-                           panel_segments=panel_segments)
         say(f"exporting the {case} estimator FMU")
         est = export_estimator_fmu(scenario, Path(tmp) / "estimator.fmu", case=case, profile=profile)
+        say("exporting the plant FMU (one filter period ahead of the master)")
+        plant = export_fmu(scenario, Path(tmp) / "plant.fmu", variant=variant, fmi_version=2,
+                           directional_derivatives=directional_derivatives, step_jacobian=step_jacobian,
+                           panel_segments=panel_segments, lead=est.period)
         _, plant_vars, _ = fmu_variables(plant.path)
         _, est_vars, _ = fmu_variables(est.path)
         cons, system_inputs, flags = scheme_connections(plant_vars, est_vars)

@@ -17,6 +17,19 @@
  * H / n <= PC_STEP; a whole multiple of PC_STEP (to 1e-9) is taken in steps of exactly PC_STEP, as the
  * native process model takes a filter step.
  *
+ * The sampled sensors (outputs gyro_mean_*, accel_mean_*; noise-free, perfect instruments) are the native
+ * sensors' definitions (studies/sensing.py, estimation/increments.py) over the last step [t0, t1] flown, by
+ * the engine's own functions (pc_increments.c): the mean rate box_minus(q1, q0) / (t1 - t0) and the mean
+ * specific force (Exp(phi) u1 - u0) / (t1 - t0) at the accelerometer's point PC_R_ACC (u = v + w x r, body
+ * components, B at t0), less the mean of the tidal field of the orbit the plant flies (PC_ORBIT_N; none in
+ * free space). A step started from x_corr (reset) starts from it. Before the first step they are the
+ * instantaneous values: the body rate and the point's acceleration less the tidal field now.
+ *
+ * PC_LEAD > 0 runs the plant that far ahead of the master's clock: leaving initialisation flies
+ * [t0, t0 + PC_LEAD] (the sampled sensors then hold its means), and a step from the master's t flies
+ * [t + PC_LEAD, t + PC_LEAD + H]; the excitation and the orbit's field follow the plant's time, the last
+ * successful time (fmi2GetRealStatus) and FMI 3.0's independent variable time the master's.
+ *
  * Checks: every real set must be finite and within PC_MAX_ABS (parameters at least their bound); a
  * communication step finite and in (0, PC_MAX_COMM_STEP]; a corrected state's quaternion within
  * PC_QUAT_TOL of unit norm (then normalised); so must be the quaternion of the state leaving
@@ -33,6 +46,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pc_filter.h"
 #include "pc_fmu.h"
 
 #define NQ PC_NQ
@@ -44,7 +58,7 @@
 #define PC_MAX_ABS 1e15   /* largest magnitude of any real set */
 #define PC_QUAT_TOL 1e-6  /* |norm(quaternion) - 1| accepted before normalisation */
 #define PC_STATE_MAGIC 0x53464350u /* "PCFS" */
-#define PC_STATE_VERSION 3u
+#define PC_STATE_VERSION 4u
 #define PC_HEADER_SIZE (4 * sizeof(uint32_t))
 
 /* ------------------------------------------------------------------------------------ messages */
@@ -154,8 +168,10 @@ static double quat_norm(const double* x) {
     return sqrt(s);
 }
 
+static int fly(pc_fmu_t* F, const char* function, double t, double H, double t_master);
+
 /* the state set during initialisation is checked (not normalised: its directional derivatives are those
- * of the ambient entries a master set) */
+ * of the ambient entries a master set); with PC_LEAD the plant then flies [t0, t0 + PC_LEAD] */
 int pc_fmu_exit_init(pc_fmu_t* F, const char* function) {
     double nq = quat_norm(F->c.x);
     if (F->c.mode != PC_MODE_INIT) return pc_fmu_fail(F, function, "only allowed in initialisation mode");
@@ -164,6 +180,7 @@ int pc_fmu_exit_init(pc_fmu_t* F, const char* function) {
                            nq, PC_QUAT_TOL);
     F->c.mode = PC_MODE_STEP;
     F->out_valid = 0;
+    if (PC_LEAD > 0.0) return fly(F, function, F->c.time, PC_LEAD, F->c.time); /* ahead of the master */
     return PC_FMU_OK;
 }
 
@@ -179,6 +196,32 @@ static void quat_matrix(const double* a, double* R) {
     R[0] = 1 - 2 * (y * y + z * z); R[1] = 2 * (x * y - w * z); R[2] = 2 * (x * z + w * y);
     R[3] = 2 * (x * y + w * z); R[4] = 1 - 2 * (x * x + z * z); R[5] = 2 * (y * z - w * x);
     R[6] = 2 * (x * z - w * y); R[7] = 2 * (y * z + w * x); R[8] = 1 - 2 * (x * x + y * y);
+}
+
+/* scalar-first q_BN of a configuration's quaternion (q[3..6] = x, y, z, w) */
+static void q_scalar_first(const double* q, double* out) {
+    out[0] = q[6]; out[1] = q[3]; out[2] = q[4]; out[3] = q[5];
+}
+
+/* the tidal field of the plant's orbit at the accelerometer's point now, in B (0 in free space) */
+static void tidal_now(const double* q, double t, double* g) {
+    double qs[4];
+    q_scalar_first(q, qs);
+    pc_tidal_mean(qs, q, qs, q, PC_R_ACC, PC_ORBIT_N, t, t, g);
+}
+
+/* the sampled sensors over a step from x0 at t0 to x1 at t1: mean rate, then mean specific force */
+static void sensed_means(const double* x0, const double* x1, double t0, double t1, double* out) {
+    double q0[4], q1[4], phi[3], g[3], dt = t1 - t0;
+    const double* v0 = x0 + NQ;
+    const double* v1 = x1 + NQ;
+    int i;
+    q_scalar_first(x0, q0);
+    q_scalar_first(x1, q1);
+    pc_mean_rate(q0, q1, dt, out, NULL, NULL, phi);
+    pc_mean_specific_force(phi, v0, v0 + 3, v1, v1 + 3, PC_R_ACC, dt, out + 3, NULL);
+    pc_tidal_mean(q0, x0, q1, x1, PC_R_ACC, PC_ORBIT_N, t0, t1, g);
+    for (i = 0; i < 3; i++) out[3 + i] -= g[i];
 }
 
 static int update_outputs(pc_fmu_t* F) {
@@ -201,6 +244,15 @@ static int update_outputs(pc_fmu_t* F) {
     for (i = 0; i < PC_NARM; i++) F->y[k++] = i < PC_NARM_V ? v[PC_ARM_V[i]] : 0.0;
     for (i = 0; i < PC_NARM; i++) F->y[k++] = i < PC_NARM_V ? F->ddq[PC_ARM_V[i]] : 0.0;
     for (i = 0; i < 4 * PC_NPANELS; i++) F->y[k++] = panels[i];
+    /* the sampled sensors: the last step's means, or before any step the instantaneous values */
+    if (F->c.sensed) {
+        for (i = 0; i < 6; i++) F->y[k++] = F->c.sens[i];
+    } else {
+        double g[3];
+        tidal_now(q, F->c.time, g);
+        for (i = 0; i < 3; i++) F->y[k++] = v[3 + i];
+        for (i = 0; i < 3; i++) F->y[k++] = mech[11 + i] - g[i];
+    }
     /* ambient state derivative: dp/dt = R v, dquat/dt = quat (w, 0) / 2, de/dt = v_e, dv/dt = ddq */
     {
         const double* a = q + 3;
@@ -237,7 +289,7 @@ int pc_fmu_get(pc_fmu_t* F, const char* function, const unsigned* vr, size_t n, 
         else if (r == PC_VR_JVALID) value[k] = F->c.jac_valid;
 #endif
 #ifdef PC_VR_TIME
-        else if (r == PC_VR_TIME) value[k] = F->c.time;
+        else if (r == PC_VR_TIME) value[k] = F->c.last_ok_time; /* the master's time (the plant's less PC_LEAD) */
 #endif
         else return pc_fmu_fail(F, function, "unknown value reference %u", r);
     }
@@ -352,6 +404,10 @@ static int directional_outputs(pc_fmu_t* F, const double* dx, const double* dd, 
         for (j = 0; j < 4; j++) t += Jq[i * 4 + j] * dx[3 + j];
         dy[k++] = t;
     }
+    /* the sampled sensors: after a step fixed (no known moves them); before, those of the body rate and of
+     * the acceleration (dy[10..12]; the tidal field's own partials left out, as the gravity gradient's) */
+    for (i = 0; i < 3; i++) dy[k++] = F->c.sensed ? 0.0 : dv[3 + i];
+    for (i = 0; i < 3; i++) dy[k++] = F->c.sensed ? 0.0 : dy[10 + i];
     return 0;
 }
 
@@ -481,25 +537,34 @@ static int advance(pc_fmu_t* F, double* x, double t, double h, long n, int want_
     return pc_predict(F->m, F->d, x, x + NQ, t, h, (int)n, 0, z, NULL, NULL, NULL, NULL, NULL, NULL);
 }
 
-int pc_fmu_do_step(pc_fmu_t* F, const char* function, double t, double H) {
-    double x[NX], h;
+/* the plant flies [t, t + H] (its own time) from its state or x_corr; the master then stands at t_master */
+static int fly(pc_fmu_t* F, const char* function, double t, double H, double t_master) {
+    double x[NX], x0[NX], h;
     long n;
     int want_jac = PC_STEP_JACOBIAN && F->c.jreq > 0.5;
-    if (check_step(F, function, t, H) != PC_FMU_OK || start_state(F, function, x) != PC_FMU_OK) return PC_FMU_ERROR;
+    if (start_state(F, function, x) != PC_FMU_OK) return PC_FMU_ERROR;
+    memcpy(x0, x, sizeof x);
     n = internal_steps(H, &h);
     push_settings(F);
     if (advance(F, x, t, h, n, want_jac)) {
         F->c.mode = PC_MODE_ERROR;
         return pc_fmu_fail(F, function, "the step from t = %.17g s failed: %s", t, pc_error_message(F->d));
     }
+    sensed_means(x0, x, t, t + H, F->c.sens);
+    F->c.sensed = 1;
     memcpy(F->c.x, x, sizeof x);
     if (want_jac) memcpy(F->c.jac, F->scratch, sizeof F->c.jac);
     else memset(F->c.jac, 0, sizeof F->c.jac);
     F->c.jac_valid = want_jac;
     F->c.time = t + H;
-    F->c.last_ok_time = F->c.time;
+    F->c.last_ok_time = t_master;
     F->out_valid = 0;
     return PC_FMU_OK;
+}
+
+int pc_fmu_do_step(pc_fmu_t* F, const char* function, double t, double H) {
+    if (check_step(F, function, t, H) != PC_FMU_OK) return PC_FMU_ERROR;
+    return fly(F, function, t + PC_LEAD, H, t + H);
 }
 
 /* ------------------------------------------------------------------------------------ FMU state */
@@ -515,7 +580,8 @@ static int first_not_finite(const double* v, int n) {
 static int check_state_flags(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
     if (!(fabs(s->time) < PC_MAX_ABS) || !(fabs(s->last_ok_time) < PC_MAX_ABS))
         return pc_fmu_fail(F, function, "the state's time %.17g is not finite", s->time);
-    if (s->mode < PC_MODE_INSTANTIATED || s->mode > PC_MODE_ERROR || (s->jac_valid != 0 && s->jac_valid != 1))
+    if (s->mode < PC_MODE_INSTANTIATED || s->mode > PC_MODE_ERROR || (s->jac_valid != 0 && s->jac_valid != 1) ||
+        (s->sensed != 0 && s->sensed != 1))
         return pc_fmu_fail(F, function, "not a state of this FMU (mode %d)", s->mode);
     return PC_FMU_OK;
 }
@@ -542,7 +608,7 @@ static int check_state_p_bounds(pc_fmu_t* F, const char* function, const pc_fmu_
     return PC_FMU_OK;
 }
 
-/* A state's inputs, correction, reset and Jacobian request, and Jacobian outputs: all finite. */
+/* A state's inputs, correction, reset and Jacobian request, Jacobian outputs and sampled sensors: all finite. */
 static int check_state_inputs(pc_fmu_t* F, const char* function, const pc_fmu_state_t* s) {
     int i = first_not_finite(s->u, PC_NU);
     if (i >= 0)
@@ -553,6 +619,7 @@ static int check_state_inputs(pc_fmu_t* F, const char* function, const pc_fmu_st
     if (!(fabs(s->reset) <= PC_MAX_ABS) || !(fabs(s->jreq) <= PC_MAX_ABS))
         return pc_fmu_fail(F, function, "the state's reset or jacobian_request is not finite");
     if (first_not_finite(s->jac, NJAC) >= 0) return pc_fmu_fail(F, function, "the state's Jacobian outputs are not finite");
+    if (first_not_finite(s->sens, 6) >= 0) return pc_fmu_fail(F, function, "the state's sampled sensors are not finite");
     return PC_FMU_OK;
 }
 

@@ -38,7 +38,9 @@ typedef struct {
     double xc[PC_FMU_NX];
     double reset, jreq;
     double jac[PC_FMU_NJAC];
+    double sens[6];   /* gyro_mean, accel_mean over the last step (when sensed) */
     int jac_valid, mode;
+    int sensed;       /* 1 once a step (or the lead) has been taken: sens holds its means */
 } pc_fmu_state_t;
 
 /* The wrapper's logger: status (an FMI status), category and the formatted message. */

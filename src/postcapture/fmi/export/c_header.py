@@ -50,9 +50,10 @@ def write_c_header(
     x0: np.ndarray,
     directional: bool,
     orbit_mean_motion: float = 0.0,
+    lead: float = 0.0,
 ) -> str:
     """The text of ``pc_fmu_data.h``; ``orbit_mean_motion`` (rad/s) is the orbit whose gravity gradient the
-    plant feels (0: free space)."""
+    plant feels (0: free space), ``lead`` (s) how far the plant runs ahead of the master's clock (0: none)."""
     b = interface.blocks
     packed = plant.packed
     n_param_vector = len(plant.parameters)
@@ -75,6 +76,7 @@ def write_c_header(
         f"#define PC_STEP_JACOBIAN {int(interface.step_jacobian)}",
         f"#define PC_STEP {_num(step)}",
         f"#define PC_ORBIT_N {_num(orbit_mean_motion)}",
+        f"#define PC_LEAD {_num(lead)}",
         f"#define PC_MAX_COMM_STEP {_num(MAX_COMM_STEP)}",
         f"#define PC_STAGES {tableau.stages}",
         f"#define PC_NVARS {len(interface.variables)}",

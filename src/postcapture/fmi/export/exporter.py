@@ -97,6 +97,7 @@ def export_fmu(
     integrator: str | None = None,
     step: float | None = None,
     model_identifier: str | None = None,
+    lead: float = 0.0,
     progress: Callable[[str], None] | None = None,
 ) -> ExportReport:
     """Export the plant of a scenario as a co-simulation FMU.
@@ -133,6 +134,15 @@ def export_fmu(
         (a whole multiple of ``step`` in steps of exactly ``step``, as the native process model).
     model_identifier : str, optional
         C identifier and library name (default ``<scenario>_<variant>``).
+    lead : float
+        How far (s) the plant runs ahead of the master's clock (default 0: not at all). With ``lead > 0`` it
+        flies ``[t0, t0 + lead]`` when leaving initialisation and a step from the master's ``t`` of ``H`` flies
+        ``[t + lead, t + lead + H]``: at the master's ``t`` its outputs are the plant's at ``t + lead``. The
+        SSP scheme sets it to the filter's period, so that a Jacobi master (OMSimulator's) hands the
+        estimator's cycle ``[t_k, t_k+1]`` the sensors of that cycle (the star tracker and the encoders at
+        its end, the means over it) instead of those one cycle older
+        (:mod:`postcapture.studies.estimator_ssp`). Inputs set at the master's ``t`` act over the plant's
+        ``[t + lead, t + lead + H]``.
     progress : callable, optional
         ``progress(message: str) -> None``, called at each stage.
 
@@ -160,6 +170,8 @@ def export_fmu(
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
     integrator, step = _check_settings(scenario, fmi_version, integrator, step)
+    if not (isinstance(lead, (int, float)) and 0.0 <= float(lead) < float("inf")):
+        raise ValueError(f"lead: expected a finite number of seconds, at least 0, found {lead!r}")
     version = VERSIONS[fmi_version]
     out_path = check_output_file(out_path)
     check_output_file(mapping_sidecar(out_path))
@@ -169,7 +181,7 @@ def export_fmu(
     q0, v0 = initial_state(system)
     plant = ExportPlant(system)
     settings = _Settings(variant, panel_segments, excitation, integrator, step, directional_derivatives, step_jacobian,
-                         ident, version.number, orbit_mean_motion(scenario, "filters"))
+                         ident, version.number, orbit_mean_motion(scenario, "filters"), float(lead))
     guid = _guid(scenario, settings)
     with scratch_folder("postcapture_fmu") as tmp:  # a killed export's folder goes at the next export
         root = Path(tmp) / "fmu"
@@ -208,6 +220,7 @@ class _Settings:
     ident: str
     fmi_version: int
     orbit: float  # rad/s: the mean motion of the orbit the filters' plant feels (0: free space)
+    lead: float = 0.0  # s: how far the plant runs ahead of the master's clock
 
 
 def _check_settings(scenario: Scenario, fmi_version, integrator, step) -> tuple[str, float]:
@@ -231,6 +244,7 @@ def _guid(scenario: Scenario, s: _Settings) -> str:
     key = hashlib.sha256("|".join([
         scenario.model_dump_json(), s.variant, str(s.panel_segments), str(s.excitation), s.integrator, repr(s.step),
         str(s.directional), str(s.step_jacobian), s.ident, str(s.fmi_version), repr(s.orbit), __version__,
+        *([f"lead={s.lead!r}"] if s.lead else []),
     ]).encode()).hexdigest()
     return "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "postcapture:" + key)) + "}"
 
@@ -248,7 +262,7 @@ def _write_sources(fmpy, sources: Path, plant, x0: np.ndarray, guid: str, s: _Se
     interface = build_interface(plant, x0, step_jacobian=s.step_jacobian, n_y=len(plant.output_signals()),
                                 n_z=3 + plant.n_arm, independent_time=version.independent_time)
     header = write_c_header(plant, interface, guid=guid, tableau=TABLEAUX[s.integrator], step=s.step, x0=x0,
-                            directional=s.directional, orbit_mean_motion=s.orbit)
+                            directional=s.directional, orbit_mean_motion=s.orbit, lead=s.lead)
     (sources / "pc_fmu_data.h").write_text(header)
     for name, text in source_files().items():
         (sources / name).write_text(text)

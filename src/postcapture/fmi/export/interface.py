@@ -8,7 +8,9 @@ block                       causality   meaning
 ==========================  ==========  ============================================================
 ``q[i]``, ``v[i]``          output      the state ``x = [q, v]`` (continuous states, ``initial="exact"``)
 ``der(q[i])``, ...          local       ambient state derivatives (ModelStructure: the derivatives)
-named outputs               output      ``q_BN_w`` ... ``accel_B_x`` ... ``arm_ddq_7``, tips, torsions
+named outputs               output      ``q_BN_w`` ... ``accel_B_x`` ... ``arm_ddq_7``, tips, torsions,
+                                        then the sampled sensors ``gyro_mean_x`` ... ``accel_mean_z``
+                                        (discrete: means over the last communication step)
 ``target.m`` ... ``arm.*``  input       the plant's parameter vector, held constant: inputs, so that
                                         their partials are standard directional derivatives
 ``force_x`` ... ``joint_n`` input       added to the embedded excitation, held over a step
@@ -134,7 +136,7 @@ def _state_blocks(t: _Table, plant: ExportPlant, x0: np.ndarray, x_names: list[s
     t.block("dx", [dict(name=f"der({name})", causality="local", variability="continuous", initial="calculated",
                         description=f"time derivative of {name}", unit=_DER_UNIT[x_units[i]], derivative=i + 1)
                    for i, name in enumerate(x_names)])
-    t.block("y", [dict(name=s.name, causality="output", variability="continuous", initial="calculated",
+    t.block("y", [dict(name=s.name, causality="output", variability=s.variability, initial="calculated",
                        description=s.description, unit=s.unit) for s in plant.output_signals()])
     return x_units
 

@@ -36,6 +36,7 @@ class OutputSignal:
     name: str
     unit: str
     description: str
+    variability: str = "continuous"
 
 
 def _parameter_unit(name: str) -> tuple[str, str]:
@@ -101,4 +102,12 @@ class ExportPlant:
             sig += [OutputSignal(f"tip_{p.name}_{c}", "m", f"tip deflection of {p.name} in its root frame, component {c}")
                     for c in xyz]
             sig.append(OutputSignal(f"torsion_{p.name}", "rad", f"root torsion angle of {p.name}"))
+        # the sampled inertial sensors (noise-free): means over the last communication step, constant between
+        # communication points (discrete); before the first step the instantaneous values (pc_fmu.c)
+        sig += [OutputSignal(f"gyro_mean_{c}", "rad/s", "gyro: mean body rate over the last communication step, "
+                             "box_minus(q_end, q_start) / step, B at its start, component " + c, "discrete")
+                for c in xyz]
+        sig += [OutputSignal(f"accel_mean_{c}", "m/s2", "accelerometer: mean specific force at its point over the "
+                             "last communication step (velocity increment in B at its start / step, less the "
+                             "orbit's tidal field), component " + c, "discrete") for c in xyz]
         return sig

@@ -11,7 +11,10 @@ last step: they depend on no known.
 The lists follow the plant's equations (the ones the directional derivatives of ``pc_fmu.c`` differentiate):
 the accelerations depend on the joint angles, every velocity, the inputs and the parameters, and on the
 root's pose only in an orbit (its gravity gradient: listed, though the directional derivatives leave the
-field's partials out, of order n^2); the kinematic outputs depend on the coordinates they read.
+field's partials out, of order n^2); the kinematic outputs depend on the coordinates they read. The sampled
+sensors (``gyro_mean_*``, ``accel_mean_*``: means over the last communication step, fixed between
+communication points) list what their value before the first step depends on (the rate; the acceleration
+less the tidal field): after a step they depend on no known.
 """
 
 from __future__ import annotations
@@ -66,10 +69,12 @@ def dependencies(interface: Interface, plant: ExportPlant, *, orbit: bool = Fals
         name = signal.name
         if name.startswith("q_BN_"):
             d = q(3, 4, 5, 6)
-        elif name.startswith("omega_BN_B_"):
+        elif name.startswith(("omega_BN_B_", "gyro_mean_")):  # a mean: the rate itself before the first step
             d = v(3, 4, 5)
         elif name.startswith("r_BN_N_"):
             d = q(0, 1, 2)
+        elif name.startswith("accel_mean_"):  # before the first step: the acceleration less the tidal field
+            d = accel  # (in an orbit accel lists the pose, on which the field depends)
         elif name.startswith(("accel_B_", "arm_ddq_")):
             j = int(name.rsplit("_", 1)[1]) - 1 if name.startswith("arm_ddq_") else 0
             d = accel if name.startswith("accel_B_") or j < len(arm_v) else []
