@@ -238,3 +238,50 @@ def test_nis_three_times_too_large_is_flagged_within_a_window_and_after_the_vali
     low = ValidityMonitor(p, DT)
     nis_low = np.where(t >= t0 - 1e-9, nis / 9.0, nis)  # a third of the chi-square's
     assert all(low.update("accelerometer", t[k], nis_low[k], 3) is None for k in range(n)) and low.flags == []
+
+
+def test_rewinds_keep_the_windowed_sums_and_flags_of_the_samples_kept():
+    """The supervisor rewinds the monitor (drops every sample after a time) and feeds it the re-processed
+    samples again. Against the rule computed apart on a plain list of the samples kept (the last ``window_n``
+    ever fed, less those dropped: the window refills after a rewind; the flags raised after the rewind's time
+    forgotten): the same flags, at the same samples, with the same onsets, over 40 seeded rewinds (some back
+    past a flag) of a NIS that wanders in and out of the band. A decision at the band's edge would show a sum
+    that is not the left-to-right sum of the window's NIS."""
+    p = DetectionPolicy(validity_window=2.0, validity_time=1.0)
+    window_n = int(round(p.validity_window / DT))
+    bound = {d: chi2.isf(0.5 * (1.0 - p.validity_probability), d) for d in range(1, 4 * window_n)}
+    rng = np.random.default_rng(19)
+    mon = ValidityMonitor(p, DT)
+    kept, out_since, flags = [], {}, []  # kept: the window, (t, nis, dof)
+    k, n_rewinds, raised = 0, 0, 0
+    while k < 3000:
+        # go back up to 3 s and feed those instants again: at random, and soon after a flag (as after an alarm)
+        if k > 50 and (rng.random() < 0.02 or (flags and k * DT - flags[-1][1] == pytest.approx(0.5))):
+            k = max(k - int(rng.integers(1, 30)), 0)
+            t_r = k * DT
+            mon.rewind(t_r)
+            while kept and kept[-1][0] > t_r:
+                kept.pop()
+            if out_since.get("s", -np.inf) > t_r:
+                del out_since["s"]
+            flags = [f for f in flags if f[1] <= t_r]
+            n_rewinds += 1
+        t = (k + 1) * DT
+        scale = 1.0 + 0.6 * np.sin(2.0 * np.pi * t / 40.0)  # in and out of the band
+        dof = int(rng.integers(2, 4))
+        nis = float(scale * rng.chisquare(dof))
+        got = mon.update("s", t, nis, dof)
+        kept = (kept + [(t, nis, dof)])[-window_n:]
+        want = None
+        if len(kept) == window_n:
+            if sum(x for _, x, _ in kept) > bound[sum(d for _, _, d in kept)]:
+                since = out_since.setdefault("s", t)
+                if t - since >= p.validity_time and not flags:
+                    want = (since, t)
+                    flags.append(want)
+            else:
+                out_since.pop("s", None)
+        assert (None if got is None else (got.since, got.time)) == want, (k, got, want)
+        raised += got is not None
+        k += 1
+    assert n_rewinds >= 40 and raised >= 3 and [(f.since, f.time) for f in mon.flags] == flags

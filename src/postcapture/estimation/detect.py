@@ -107,49 +107,70 @@ class Alarm:
 
 
 class ChangeDetector:
-    """Two-sided CUSUM on each of ``m`` normalised innovation components (see the module docstring)."""
+    """Two-sided CUSUM on each of ``m`` normalised innovation components (see the module docstring).
+
+    The statistics are plain Python floats, one list per side (a detector sees a few components at a time,
+    thousands of times a run: numpy's per-call cost on arrays of three was most of its time); ``g``,
+    ``since``, ``sums`` and ``counts`` read them as (2, m) arrays, side 0 the upper one.
+    """
 
     def __init__(self, m: int, drift: float, threshold: float, memory: int = 1200):
         self.m, self.drift, self.threshold = int(m), float(drift), float(threshold)
-        self._history: deque = deque(maxlen=int(memory))  # (t, z (m,)) for locating an onset
+        self._history: deque = deque(maxlen=int(memory))  # (t, z per component, NaN where not fed)
         self.reset()
+
+    g = property(lambda self: np.array(self._g, dtype=float), doc="The CUSUM statistics (2, m), upper side first.")
+    since = property(lambda self: np.array(self._since, dtype=float), doc="When each statistic left zero (s).")
+    sums = property(lambda self: np.array(self._sums, dtype=float), doc="Sum of z since then.")
+    counts = property(lambda self: np.array(self._counts, dtype=int), doc="Samples since then.")
 
     def reset(self, component: int | None = None) -> None:
         """Start over (every component, or one)."""
-        idx = slice(None) if component is None else component
         if component is None:
             self._history.clear()
-            self.g = np.zeros((2, self.m))
-            self.since = np.full((2, self.m), np.nan)
-            self.sums = np.zeros((2, self.m))
-            self.counts = np.zeros((2, self.m), dtype=int)
+            m = self.m
+            self._g = [[0.0] * m, [0.0] * m]
+            self._since = [[np.nan] * m, [np.nan] * m]
+            self._sums = [[0.0] * m, [0.0] * m]
+            self._counts = [[0] * m, [0] * m]
         else:
-            self.g[:, idx] = 0.0
-            self.since[:, idx] = np.nan
-            self.sums[:, idx] = 0.0
-            self.counts[:, idx] = 0
+            for side in (0, 1):
+                self._g[side][component] = 0.0
+                self._since[side][component] = np.nan
+                self._sums[side][component] = 0.0
+                self._counts[side][component] = 0
 
     def update(self, t: float, z, components=None) -> list[Alarm]:
         """Feed normalised innovations ``z`` of the given components (all by default); return the alarms."""
-        z = np.asarray(z, dtype=float)
-        comp = np.arange(self.m) if components is None else np.asarray(components, dtype=int)
-        row = np.full(self.m, np.nan)
-        row[comp] = z
-        self._history.append((float(t), row))
-        alarms = []
-        for side, sign in ((0, 1.0), (1, -1.0)):
-            g_new = np.maximum(0.0, self.g[side, comp] + sign * z - self.drift)
-            started = (self.g[side, comp] == 0.0) & (g_new > 0.0)
-            self.since[side, comp[started]] = t
-            self.sums[side, comp[started]] = 0.0
-            self.counts[side, comp[started]] = 0
-            live = g_new > 0.0
-            self.sums[side, comp[live]] += z[live]
-            self.counts[side, comp[live]] += 1
-            self.g[side, comp] = g_new
-            for i in comp[g_new > self.threshold]:
-                alarms.append(self._locate(int(i), float(self.since[side, i]), float(t)))
-        return alarms
+        z = np.asarray(z, dtype=float).tolist()
+        comp = range(self.m) if components is None else [int(i) for i in components]
+        if len(z) != len(comp):
+            raise ValueError(f"{len(z)} innovations for {len(comp)} components")
+        t = float(t)
+        row = [np.nan] * self.m
+        for i, x in zip(comp, z):
+            row[i] = x
+        self._history.append((t, row))
+        fired = [(side, i) for side, sign in ((0, 1.0), (1, -1.0)) for i in self._step(side, sign, t, comp, z)]
+        return [self._locate(i, self._since[side][i], t) for side, i in fired]
+
+    def _step(self, side: int, sign: float, t: float, comp, z) -> list[int]:
+        """One side's statistics after the samples ``z`` of components ``comp``; the components past the
+        threshold. ``0.0 if v < 0.0 else v`` is numpy's ``maximum(0.0, v)`` to the bit (a NaN stays NaN)."""
+        g, since, sums, counts = self._g[side], self._since[side], self._sums[side], self._counts[side]
+        drift, threshold, over = self.drift, self.threshold, []
+        for i, x in zip(comp, z):
+            v = g[i] + sign * x - drift
+            g_new = 0.0 if v < 0.0 else v
+            if g_new > 0.0:
+                if g[i] == 0.0:  # the statistic starts an excursion here
+                    since[i], sums[i], counts[i] = t, 0.0, 0
+                sums[i] += x
+                counts[i] += 1
+            g[i] = g_new
+            if g_new > threshold:
+                over.append(i)
+        return over
 
     def _locate(self, i: int, since: float, t: float) -> Alarm:
         """The alarm of component ``i``: the onset where a step in the mean is likeliest (see the module
@@ -192,18 +213,25 @@ class ValidityMonitor:
 
     def __post_init__(self):
         self._n = max(int(round(self.policy.validity_window / self.dt)), 1)
-        self._buf: dict[str, deque] = {}
+        # per sensor, the window's times, NIS and dof in three deques: the sums are builtin sums over the
+        # last two (left to right, the same additions as a sum over one deque of tuples), not generators
+        self._buf: dict[str, tuple[deque, deque, deque]] = {}
         self._out_since: dict[str, float] = {}
         self._flagged: set[str] = set()
+        self._tail = 0.5 * (1.0 - self.policy.validity_probability)
 
     def update(self, sensor: str, t: float, nis: float, dof: int) -> ValidityFlag | None:
         """Book one update's NIS; return a new flag when the sensor has just been found inconsistent."""
-        buf = self._buf.setdefault(sensor, deque(maxlen=self._n))
-        buf.append((float(t), float(nis), int(dof)))
-        if len(buf) < self._n:
+        buf = self._buf.get(sensor)
+        if buf is None:
+            buf = self._buf[sensor] = tuple(deque(maxlen=self._n) for _ in range(3))
+        times, values, dofs = buf
+        times.append(float(t))
+        values.append(float(nis))
+        dofs.append(int(dof))
+        if len(times) < self._n:
             return None
-        total, dofs = sum(x for _, x, _ in buf), sum(d for _, _, d in buf)
-        side = "high" if total > _upper_bound(0.5 * (1.0 - self.policy.validity_probability), dofs) else None
+        side = "high" if sum(values) > _upper_bound(self._tail, sum(dofs)) else None
         if side is None:
             self._out_since.pop(sensor, None)
             return None
@@ -218,9 +246,11 @@ class ValidityMonitor:
     def rewind(self, t: float) -> None:
         """Forget every update after ``t`` (the supervisor went back there to process them again) and the
         flags they raised: a sample processed twice counts once, and one a re-processing isolated counts not."""
-        for sensor, buf in self._buf.items():
-            while buf and buf[-1][0] > t:
-                buf.pop()
+        for sensor, (times, values, dofs) in self._buf.items():
+            while times and times[-1] > t:
+                times.pop()
+                values.pop()
+                dofs.pop()
             if self._out_since.get(sensor, -np.inf) > t:
                 del self._out_since[sensor]
         for f in self.flags:

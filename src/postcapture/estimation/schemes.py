@@ -19,6 +19,7 @@ step's end). ``R`` gives each sensor's noise covariance as the filters assume it
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -105,6 +106,8 @@ class _Recorder:
 
 KINDS = ("gyro", "star_tracker", "accelerometer", "encoders")
 """Measurement kinds of the recommended schemes, in the order a step processes them."""
+
+_XYZ = (0, 1, 2)  # the channels of a star-tracker or gyro update: it uses all three or is missing
 
 
 def _grids(sensors: SensorSuite, t_grid) -> dict:
@@ -194,7 +197,8 @@ class _Run:
         res = f.update(Measurement(kind, t1, value, self.R[kind]))
         if rec is not None:
             rec.nis(kk, kind, res)
-        channels = np.arange(3) if kind in ("star_tracker", "gyro") else np.flatnonzero(np.isfinite(value))
+        channels = _XYZ if kind in ("star_tracker", "gyro") else [i for i, v in enumerate(value.tolist())
+                                                                  if math.isfinite(v)]
         return kind, res, channels
 
     def step(self, k: int, rec=None) -> list:
