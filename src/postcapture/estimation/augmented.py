@@ -447,6 +447,11 @@ class AugmentedEKF(FilterBase):
 
     def parameter_covariance(self) -> np.ndarray:
         """Covariance of the plant's parameter vector, first order through ``dp / d eta``."""
+        return self.parameters_with_covariance()[1]
+
+    def parameters_with_covariance(self) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`parameters` and :meth:`parameter_covariance` from one engine call (the engine computes the
+        parameters the same way with or without their covariance)."""
         p, C = np.zeros(self.params.p_nominal.size), np.zeros_like(self._C_buf)
         self._eng.aug_parameters(self._handle, p, C)
-        return C
+        return p, C
