@@ -46,6 +46,7 @@ flagged.)
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -203,6 +204,74 @@ class ValidityFlag:
     side: str  # "high": innovations too large for their covariance
 
 
+class _Window:
+    """One sensor's last ``n`` updates (times, NIS, dof) and their sums, kept running.
+
+    The dof sum is exact (ints). The NIS sum decides, and it must be the one the window gives added left to
+    right (``sum(values)``, what the monitor has always computed): a running sum differs from it in its last
+    bits. So the running sum carries a bound on that difference, and a comparison closer than the bound is
+    made on ``sum(values)``. Each rounding of the running sum is at most ``u |result|`` (``u = 2**-53``); a
+    left-to-right sum of ``n`` terms is within ``n u sum|x|`` of the exact one (Higham, *Accuracy and
+    Stability of Numerical Algorithms*, 2002, section 4.2), with ``sum|x|`` kept running beside. Every term
+    is booked at twice its bound. The running sums start again from ``sum(values)`` once a window, so the
+    bound stays small: nearly every decision is made on the running sum, and each is the left-to-right sum's.
+    """
+
+    __slots__ = ("n", "times", "values", "dofs", "dof_sum", "running", "magnitude", "_rounded", "_base", "_ops")
+    _U = 2.0**-53
+
+    def __init__(self, n: int):
+        self.n, self.times, self.values, self.dofs = n, deque(), deque(), deque()
+        self.dof_sum, self.running, self.magnitude = 0, 0.0, 0.0
+        self._rounded, self._base, self._ops = 0.0, 0.0, 0
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def _add(self, x: float, sign: float) -> None:
+        self.running += sign * x
+        self.magnitude += sign * abs(x)
+        self._rounded += 2.0 * self._U * (abs(self.running) + abs(self.magnitude))
+        self._ops += 1
+
+    def append(self, t: float, nis: float, dof: int) -> None:
+        """Book an update, the oldest one leaving a full window."""
+        if len(self.times) == self.n:
+            self.times.popleft()
+            self._add(self.values.popleft(), -1.0)
+            self.dof_sum -= self.dofs.popleft()
+        self.times.append(t)
+        self.values.append(nis)
+        self.dofs.append(dof)
+        self._add(nis, 1.0)
+        self.dof_sum += dof
+        if self._ops >= self.n:
+            self._exact()
+
+    def drop_after(self, t: float) -> None:
+        """Forget the updates after ``t``."""
+        while self.times and self.times[-1] > t:
+            self.times.pop()
+            self._add(self.values.pop(), -1.0)
+            self.dof_sum -= self.dofs.pop()
+
+    def _exact(self) -> float:
+        """The NIS sum added left to right; the running sums start again from it."""
+        self.running = sum(self.values)
+        self.magnitude = sum(map(abs, self.values))
+        self._base = 2.0 * len(self.values) * self._U * self.magnitude
+        self._rounded, self._ops = 0.0, 0
+        return self.running
+
+    def exceeds(self, bound: float) -> bool:
+        """``sum(values) > bound``: from the running sum when it is farther from ``bound`` than its error."""
+        margin = self._rounded + self._base + 2.0 * len(self.values) * self._U * abs(self.magnitude)
+        gap = self.running - bound
+        if math.isfinite(gap) and math.isfinite(margin) and abs(gap) > margin:
+            return gap > 0.0
+        return self._exact() > bound
+
+
 @dataclass
 class ValidityMonitor:
     """Windowed NIS of each sensor against its chi-square band (see the module docstring)."""
@@ -213,25 +282,20 @@ class ValidityMonitor:
 
     def __post_init__(self):
         self._n = max(int(round(self.policy.validity_window / self.dt)), 1)
-        # per sensor, the window's times, NIS and dof in three deques: the sums are builtin sums over the
-        # last two (left to right, the same additions as a sum over one deque of tuples), not generators
-        self._buf: dict[str, tuple[deque, deque, deque]] = {}
+        self._buf: dict[str, _Window] = {}
         self._out_since: dict[str, float] = {}
         self._flagged: set[str] = set()
         self._tail = 0.5 * (1.0 - self.policy.validity_probability)
 
     def update(self, sensor: str, t: float, nis: float, dof: int) -> ValidityFlag | None:
         """Book one update's NIS; return a new flag when the sensor has just been found inconsistent."""
-        buf = self._buf.get(sensor)
-        if buf is None:
-            buf = self._buf[sensor] = tuple(deque(maxlen=self._n) for _ in range(3))
-        times, values, dofs = buf
-        times.append(float(t))
-        values.append(float(nis))
-        dofs.append(int(dof))
-        if len(times) < self._n:
+        window = self._buf.get(sensor)
+        if window is None:
+            window = self._buf[sensor] = _Window(self._n)
+        window.append(float(t), float(nis), int(dof))
+        if len(window) < self._n:
             return None
-        side = "high" if sum(values) > _upper_bound(self._tail, sum(dofs)) else None
+        side = "high" if window.exceeds(_upper_bound(self._tail, window.dof_sum)) else None
         if side is None:
             self._out_since.pop(sensor, None)
             return None
@@ -246,11 +310,8 @@ class ValidityMonitor:
     def rewind(self, t: float) -> None:
         """Forget every update after ``t`` (the supervisor went back there to process them again) and the
         flags they raised: a sample processed twice counts once, and one a re-processing isolated counts not."""
-        for sensor, (times, values, dofs) in self._buf.items():
-            while times and times[-1] > t:
-                times.pop()
-                values.pop()
-                dofs.pop()
+        for sensor, window in self._buf.items():
+            window.drop_after(t)
             if self._out_since.get(sensor, -np.inf) > t:
                 del self._out_since[sensor]
         for f in self.flags:
