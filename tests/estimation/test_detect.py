@@ -240,6 +240,38 @@ def test_nis_three_times_too_large_is_flagged_within_a_window_and_after_the_vali
     assert all(low.update("accelerometer", t[k], nis_low[k], 3) is None for k in range(n)) and low.flags == []
 
 
+class KeptWindowRule:
+    """The validity monitor's rule computed apart, for one sensor, on a plain list of the samples kept: the last
+    ``window_n`` ever fed, less those a rewind dropped (the window refills after a rewind), and the flags
+    raised after the rewind's time forgotten."""
+
+    def __init__(self, policy: DetectionPolicy, window_n: int):
+        self.p, self.n = policy, window_n
+        self.bound = {d: chi2.isf(0.5 * (1.0 - policy.validity_probability), d) for d in range(1, 4 * window_n)}
+        self.kept, self.since, self.flags = [], None, []
+
+    def rewind(self, t_r: float) -> None:
+        while self.kept and self.kept[-1][0] > t_r:
+            self.kept.pop()
+        if self.since is not None and self.since > t_r:
+            self.since = None
+        self.flags = [f for f in self.flags if f[1] <= t_r]
+
+    def update(self, t: float, nis: float, dof: int):
+        """The new flag (since, time), or None."""
+        self.kept = (self.kept + [(t, nis, dof)])[-self.n:]
+        if len(self.kept) < self.n:
+            return None
+        if sum(x for _, x, _ in self.kept) <= self.bound[sum(d for _, _, d in self.kept)]:
+            self.since = None
+            return None
+        self.since = t if self.since is None else self.since
+        if t - self.since >= self.p.validity_time and not self.flags:
+            self.flags.append((self.since, t))
+            return self.flags[-1]
+        return None
+
+
 def test_rewinds_keep_the_windowed_sums_and_flags_of_the_samples_kept():
     """The supervisor rewinds the monitor (drops every sample after a time) and feeds it the re-processed
     samples again. Against the rule computed apart on a plain list of the samples kept (the last ``window_n``
@@ -248,43 +280,25 @@ def test_rewinds_keep_the_windowed_sums_and_flags_of_the_samples_kept():
     past a flag) of a NIS that wanders in and out of the band. A decision at the band's edge would show a sum
     that is not the left-to-right sum of the window's NIS."""
     p = DetectionPolicy(validity_window=2.0, validity_time=1.0)
-    window_n = int(round(p.validity_window / DT))
-    bound = {d: chi2.isf(0.5 * (1.0 - p.validity_probability), d) for d in range(1, 4 * window_n)}
+    rule = KeptWindowRule(p, int(round(p.validity_window / DT)))
     rng = np.random.default_rng(19)
     mon = ValidityMonitor(p, DT)
-    kept, out_since, flags = [], {}, []  # kept: the window, (t, nis, dof)
     k, n_rewinds, raised = 0, 0, 0
     while k < 3000:
         # go back up to 3 s and feed those instants again: at random, and soon after a flag (as after an alarm)
-        if k > 50 and (rng.random() < 0.02 or (flags and k * DT - flags[-1][1] == pytest.approx(0.5))):
+        if k > 50 and (rng.random() < 0.02 or (rule.flags and k * DT - rule.flags[-1][1] == pytest.approx(0.5))):
             k = max(k - int(rng.integers(1, 30)), 0)
-            t_r = k * DT
-            mon.rewind(t_r)
-            while kept and kept[-1][0] > t_r:
-                kept.pop()
-            if out_since.get("s", -np.inf) > t_r:
-                del out_since["s"]
-            flags = [f for f in flags if f[1] <= t_r]
+            mon.rewind(k * DT)
+            rule.rewind(k * DT)
             n_rewinds += 1
         t = (k + 1) * DT
-        scale = 1.0 + 0.6 * np.sin(2.0 * np.pi * t / 40.0)  # in and out of the band
         dof = int(rng.integers(2, 4))
-        nis = float(scale * rng.chisquare(dof))
-        got = mon.update("s", t, nis, dof)
-        kept = (kept + [(t, nis, dof)])[-window_n:]
-        want = None
-        if len(kept) == window_n:
-            if sum(x for _, x, _ in kept) > bound[sum(d for _, _, d in kept)]:
-                since = out_since.setdefault("s", t)
-                if t - since >= p.validity_time and not flags:
-                    want = (since, t)
-                    flags.append(want)
-            else:
-                out_since.pop("s", None)
+        nis = float((1.0 + 0.6 * np.sin(2.0 * np.pi * t / 40.0)) * rng.chisquare(dof))  # in and out of the band
+        got, want = mon.update("s", t, nis, dof), rule.update(t, nis, dof)
         assert (None if got is None else (got.since, got.time)) == want, (k, got, want)
         raised += got is not None
         k += 1
-    assert n_rewinds >= 40 and raised >= 3 and [(f.since, f.time) for f in mon.flags] == flags
+    assert n_rewinds >= 40 and raised >= 3 and [(f.since, f.time) for f in mon.flags] == rule.flags
 
 
 def test_the_running_window_sum_decides_as_the_left_to_right_sum_even_at_the_band_edge():
