@@ -231,11 +231,24 @@ class _StatusCall:
             raise _ERRORS.get(status, EngineError)(f"{self._name}: {text}", status=status, function=self._name)
 
 
+class _AddressCall(_StatusCall):
+    """A status-returning filter call declared over an address-taking function object (:meth:`Engine.by_address`)."""
+
+    __slots__ = ()
+
+    def __init__(self, fn, name: str, message):
+        self._fn, self._name, self._data, self._message = fn, name, 0, message
+
+
+_SCALARS = (_H, _INT, _DBL, _SZ)
+
+
 class Engine:
     """The loaded core with every function declared; attribute ``x`` is the C function ``pc_x``."""
 
     def __init__(self, lib: ctypes.CDLL):
         self.lib = lib
+        self._address_calls: dict = {}
         for name, restype, argtypes in (
             ("pc_model_create", _H, [_I, _D, _SZ, _SZ, _INT, _D, _D, _D, ctypes.c_char_p, _SZ]),
             ("pc_model_destroy", None, [_H]),
@@ -257,6 +270,22 @@ class Engine:
             setattr(self, name[3:], fn)
         for name, argtypes in _FILTER_CALLS.items():
             setattr(self, name[3:], _StatusCall(lib, name, argtypes, 0, self.filter_message))
+
+    def by_address(self, name: str):
+        """The filter function ``pc_<name>`` declared a second time, each array, buffer or struct argument an
+        address (an int, ``c_void_p``): for the calls a filter makes every cycle over buffers it allocated once
+        and never replaces, whose addresses it takes once (numpy's ndpointer check and conversion cost a few
+        microseconds an argument, tens of thousands of times a run). The attribute ``name`` keeps its checked
+        declaration; a status-returning call raises as that one does."""
+        full = f"pc_{name}"
+        if full in self._address_calls:
+            return self._address_calls[full]
+        status = full in _FILTER_CALLS
+        restype, argtypes = (ctypes.c_int, _FILTER_CALLS[full]) if status else _FILTER_PLAIN[full]
+        fn = self.lib[full]  # a new function object: the library's own (the checked declaration) is left as it is
+        fn.restype, fn.argtypes = restype, [a if a in _SCALARS else ctypes.c_void_p for a in argtypes]
+        call = self._address_calls[full] = _AddressCall(fn, full, self.filter_message) if status else fn
+        return call
 
     def message(self, data) -> str:
         """The error text a data holds (its last failure)."""

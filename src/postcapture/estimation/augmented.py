@@ -306,6 +306,13 @@ class AugmentedEKF(FilterBase):
         self._dt_t = st[o + 10:o + 12]
         self._P = st[o + 12:].reshape(N, N)
         self._C_buf = np.zeros((self.params.p_nominal.size,) * 2)
+        # an update's sample and covariance are copied into these (allocated once: their addresses are taken once)
+        n_arm = self.i_arm.size
+        self._in_value, self._in_R = np.zeros(max(4, n_arm)), np.zeros(max(3, n_arm) ** 2)
+        shapes = {0: (4, 3), 1: (3, 3), 2: (3, 3), 3: (n_arm, n_arm)}  # by kind: the sample's size, R's side
+        self._in_views = {k: (self._in_value[:n], self._in_R[:r * r].reshape(r, r)) for k, (n, r) in shapes.items()}
+        self._addr.update(value=self._in_value.ctypes.data, R=self._in_R.ctypes.data)
+        self._update_call = self._eng.by_address("aug_update")
 
     # ------------------------------------------------------------------ the state (the engine's)
     x = state_view("_x", "The plant copy's state (a copy; assigning writes the engine's).")
@@ -411,13 +418,14 @@ class AugmentedEKF(FilterBase):
         if kind is None:
             raise ValueError("measurement kind: expected star_tracker, gyro, accelerometer or encoders, "
                              f"found {z.kind!r}")
-        size = 4 if kind == 0 else (self.i_arm.size if kind == 3 else 3)
-        value = np.ascontiguousarray(z.value, dtype=float)
-        R = np.ascontiguousarray(z.R, dtype=float)
-        if value.shape != (size,) or R.shape != ((3, 3) if kind == 0 else (size, size)):
-            raise ValueError(f"{z.kind}: expected a value of {size} components and its covariance, found shapes "
-                             f"{value.shape} and {R.shape}")
-        self._eng.aug_update(self._handle, kind, float(z.t), value, R, ctypes.byref(self._res))
+        value, R = np.asarray(z.value, dtype=float), np.asarray(z.R, dtype=float)
+        in_value, in_R = self._in_views[kind]
+        if value.shape != in_value.shape or R.shape != in_R.shape:
+            raise ValueError(f"{z.kind}: expected a value of {in_value.size} components and its covariance, found "
+                             f"shapes {value.shape} and {R.shape}")
+        in_value[...], in_R[...] = value, R
+        addr = self._addr
+        self._update_call(self._handle, kind, float(z.t), addr["value"], addr["R"], addr["res"])
         return self._result(z.kind, z.t)
 
     # ------------------------------------------------------------------ faults
@@ -440,6 +448,11 @@ class AugmentedEKF(FilterBase):
 
     def parameter_covariance(self) -> np.ndarray:
         """Covariance of the plant's parameter vector, first order through ``dp / d eta``."""
+        return self.parameters_with_covariance()[1]
+
+    def parameters_with_covariance(self) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`parameters` and :meth:`parameter_covariance` from one engine call (the engine computes the
+        parameters the same way with or without their covariance)."""
         p, C = np.zeros(self.params.p_nominal.size), np.zeros_like(self._C_buf)
         self._eng.aug_parameters(self._handle, p, C)
-        return C
+        return p, C

@@ -46,6 +46,7 @@ flagged.)
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -107,49 +108,70 @@ class Alarm:
 
 
 class ChangeDetector:
-    """Two-sided CUSUM on each of ``m`` normalised innovation components (see the module docstring)."""
+    """Two-sided CUSUM on each of ``m`` normalised innovation components (see the module docstring).
+
+    The statistics are plain Python floats, one list per side (a detector sees a few components at a time,
+    thousands of times a run: numpy's per-call cost on arrays of three was most of its time); ``g``,
+    ``since``, ``sums`` and ``counts`` read them as (2, m) arrays, side 0 the upper one.
+    """
 
     def __init__(self, m: int, drift: float, threshold: float, memory: int = 1200):
         self.m, self.drift, self.threshold = int(m), float(drift), float(threshold)
-        self._history: deque = deque(maxlen=int(memory))  # (t, z (m,)) for locating an onset
+        self._history: deque = deque(maxlen=int(memory))  # (t, z per component, NaN where not fed)
         self.reset()
+
+    g = property(lambda self: np.array(self._g, dtype=float), doc="The CUSUM statistics (2, m), upper side first.")
+    since = property(lambda self: np.array(self._since, dtype=float), doc="When each statistic left zero (s).")
+    sums = property(lambda self: np.array(self._sums, dtype=float), doc="Sum of z since then.")
+    counts = property(lambda self: np.array(self._counts, dtype=int), doc="Samples since then.")
 
     def reset(self, component: int | None = None) -> None:
         """Start over (every component, or one)."""
-        idx = slice(None) if component is None else component
         if component is None:
             self._history.clear()
-            self.g = np.zeros((2, self.m))
-            self.since = np.full((2, self.m), np.nan)
-            self.sums = np.zeros((2, self.m))
-            self.counts = np.zeros((2, self.m), dtype=int)
+            m = self.m
+            self._g = [[0.0] * m, [0.0] * m]
+            self._since = [[np.nan] * m, [np.nan] * m]
+            self._sums = [[0.0] * m, [0.0] * m]
+            self._counts = [[0] * m, [0] * m]
         else:
-            self.g[:, idx] = 0.0
-            self.since[:, idx] = np.nan
-            self.sums[:, idx] = 0.0
-            self.counts[:, idx] = 0
+            for side in (0, 1):
+                self._g[side][component] = 0.0
+                self._since[side][component] = np.nan
+                self._sums[side][component] = 0.0
+                self._counts[side][component] = 0
 
     def update(self, t: float, z, components=None) -> list[Alarm]:
         """Feed normalised innovations ``z`` of the given components (all by default); return the alarms."""
-        z = np.asarray(z, dtype=float)
-        comp = np.arange(self.m) if components is None else np.asarray(components, dtype=int)
-        row = np.full(self.m, np.nan)
-        row[comp] = z
-        self._history.append((float(t), row))
-        alarms = []
-        for side, sign in ((0, 1.0), (1, -1.0)):
-            g_new = np.maximum(0.0, self.g[side, comp] + sign * z - self.drift)
-            started = (self.g[side, comp] == 0.0) & (g_new > 0.0)
-            self.since[side, comp[started]] = t
-            self.sums[side, comp[started]] = 0.0
-            self.counts[side, comp[started]] = 0
-            live = g_new > 0.0
-            self.sums[side, comp[live]] += z[live]
-            self.counts[side, comp[live]] += 1
-            self.g[side, comp] = g_new
-            for i in comp[g_new > self.threshold]:
-                alarms.append(self._locate(int(i), float(self.since[side, i]), float(t)))
-        return alarms
+        z = np.asarray(z, dtype=float).tolist()
+        comp = range(self.m) if components is None else [int(i) for i in components]
+        if len(z) != len(comp):
+            raise ValueError(f"{len(z)} innovations for {len(comp)} components")
+        t = float(t)
+        row = [np.nan] * self.m
+        for i, x in zip(comp, z):
+            row[i] = x
+        self._history.append((t, row))
+        fired = [(side, i) for side, sign in ((0, 1.0), (1, -1.0)) for i in self._step(side, sign, t, comp, z)]
+        return [self._locate(i, self._since[side][i], t) for side, i in fired]
+
+    def _step(self, side: int, sign: float, t: float, comp, z) -> list[int]:
+        """One side's statistics after the samples ``z`` of components ``comp``; the components past the
+        threshold. ``0.0 if v < 0.0 else v`` is numpy's ``maximum(0.0, v)`` to the bit (a NaN stays NaN)."""
+        g, since, sums, counts = self._g[side], self._since[side], self._sums[side], self._counts[side]
+        drift, threshold, over = self.drift, self.threshold, []
+        for i, x in zip(comp, z):
+            v = g[i] + sign * x - drift
+            g_new = 0.0 if v < 0.0 else v
+            if g_new > 0.0:
+                if g[i] == 0.0:  # the statistic starts an excursion here
+                    since[i], sums[i], counts[i] = t, 0.0, 0
+                sums[i] += x
+                counts[i] += 1
+            g[i] = g_new
+            if g_new > threshold:
+                over.append(i)
+        return over
 
     def _locate(self, i: int, since: float, t: float) -> Alarm:
         """The alarm of component ``i``: the onset where a step in the mean is likeliest (see the module
@@ -182,6 +204,74 @@ class ValidityFlag:
     side: str  # "high": innovations too large for their covariance
 
 
+class _Window:
+    """One sensor's last ``n`` updates (times, NIS, dof) and their sums, kept running.
+
+    The dof sum is exact (ints). The NIS sum decides, and it must be the one the window gives added left to
+    right (``sum(values)``, what the monitor has always computed): a running sum differs from it in its last
+    bits. So the running sum carries a bound on that difference, and a comparison closer than the bound is
+    made on ``sum(values)``. Each rounding of the running sum is at most ``u |result|`` (``u = 2**-53``); a
+    left-to-right sum of ``n`` terms is within ``n u sum|x|`` of the exact one (Higham, *Accuracy and
+    Stability of Numerical Algorithms*, 2002, section 4.2), with ``sum|x|`` kept running beside. Every term
+    is booked at twice its bound. The running sums start again from ``sum(values)`` once a window, so the
+    bound stays small: nearly every decision is made on the running sum, and each is the left-to-right sum's.
+    """
+
+    __slots__ = ("n", "times", "values", "dofs", "dof_sum", "running", "magnitude", "_rounded", "_base", "_ops")
+    _U = 2.0**-53
+
+    def __init__(self, n: int):
+        self.n, self.times, self.values, self.dofs = n, deque(), deque(), deque()
+        self.dof_sum, self.running, self.magnitude = 0, 0.0, 0.0
+        self._rounded, self._base, self._ops = 0.0, 0.0, 0
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def _add(self, x: float, sign: float) -> None:
+        self.running += sign * x
+        self.magnitude += sign * abs(x)
+        self._rounded += 2.0 * self._U * (abs(self.running) + abs(self.magnitude))
+        self._ops += 1
+
+    def append(self, t: float, nis: float, dof: int) -> None:
+        """Book an update, the oldest one leaving a full window."""
+        if len(self.times) == self.n:
+            self.times.popleft()
+            self._add(self.values.popleft(), -1.0)
+            self.dof_sum -= self.dofs.popleft()
+        self.times.append(t)
+        self.values.append(nis)
+        self.dofs.append(dof)
+        self._add(nis, 1.0)
+        self.dof_sum += dof
+        if self._ops >= self.n:
+            self._exact()
+
+    def drop_after(self, t: float) -> None:
+        """Forget the updates after ``t``."""
+        while self.times and self.times[-1] > t:
+            self.times.pop()
+            self._add(self.values.pop(), -1.0)
+            self.dof_sum -= self.dofs.pop()
+
+    def _exact(self) -> float:
+        """The NIS sum added left to right; the running sums start again from it."""
+        self.running = sum(self.values)
+        self.magnitude = sum(map(abs, self.values))
+        self._base = 2.0 * len(self.values) * self._U * self.magnitude
+        self._rounded, self._ops = 0.0, 0
+        return self.running
+
+    def exceeds(self, bound: float) -> bool:
+        """``sum(values) > bound``: from the running sum when it is farther from ``bound`` than its error."""
+        margin = self._rounded + self._base + 2.0 * len(self.values) * self._U * abs(self.magnitude)
+        gap = self.running - bound
+        if math.isfinite(gap) and math.isfinite(margin) and abs(gap) > margin:
+            return gap > 0.0
+        return self._exact() > bound
+
+
 @dataclass
 class ValidityMonitor:
     """Windowed NIS of each sensor against its chi-square band (see the module docstring)."""
@@ -192,18 +282,20 @@ class ValidityMonitor:
 
     def __post_init__(self):
         self._n = max(int(round(self.policy.validity_window / self.dt)), 1)
-        self._buf: dict[str, deque] = {}
+        self._buf: dict[str, _Window] = {}
         self._out_since: dict[str, float] = {}
         self._flagged: set[str] = set()
+        self._tail = 0.5 * (1.0 - self.policy.validity_probability)
 
     def update(self, sensor: str, t: float, nis: float, dof: int) -> ValidityFlag | None:
         """Book one update's NIS; return a new flag when the sensor has just been found inconsistent."""
-        buf = self._buf.setdefault(sensor, deque(maxlen=self._n))
-        buf.append((float(t), float(nis), int(dof)))
-        if len(buf) < self._n:
+        window = self._buf.get(sensor)
+        if window is None:
+            window = self._buf[sensor] = _Window(self._n)
+        window.append(float(t), float(nis), int(dof))
+        if len(window) < self._n:
             return None
-        total, dofs = sum(x for _, x, _ in buf), sum(d for _, _, d in buf)
-        side = "high" if total > _upper_bound(0.5 * (1.0 - self.policy.validity_probability), dofs) else None
+        side = "high" if window.exceeds(_upper_bound(self._tail, window.dof_sum)) else None
         if side is None:
             self._out_since.pop(sensor, None)
             return None
@@ -218,9 +310,8 @@ class ValidityMonitor:
     def rewind(self, t: float) -> None:
         """Forget every update after ``t`` (the supervisor went back there to process them again) and the
         flags they raised: a sample processed twice counts once, and one a re-processing isolated counts not."""
-        for sensor, buf in self._buf.items():
-            while buf and buf[-1][0] > t:
-                buf.pop()
+        for sensor, window in self._buf.items():
+            window.drop_after(t)
             if self._out_since.get(sensor, -np.inf) > t:
                 del self._out_since[sensor]
         for f in self.flags:

@@ -133,6 +133,7 @@ KINDS = ("star_tracker", "gyro", "accelerometer", "encoders", "accelerations")
 
 _EVENT_TYPES = ("recovering", "recovered", "diverged", "reinitialised")
 _COUNTS = ("updates", "rejected", "measurements_missing", "recoveries", "divergences", "inputs_missing")
+_STATUS = (FilterStatus.RUNNING, FilterStatus.RECOVERING, FilterStatus.DIVERGED)  # the engine's numbering
 
 
 @lru_cache(maxsize=64)
@@ -181,11 +182,21 @@ class FilterBase:
         self.policy = policy or RecoveryPolicy()
         self.gate_probability = gate_probability
         self.counts = {"updates": 0, "rejected": 0, "measurements_missing": 0, "recoveries": 0, "divergences": 0}
-        self._seen = np.zeros(len(_COUNTS), dtype=np.int64)
+        self._seen = [0] * len(_COUNTS)  # the engine's counts at the last _sync
         self._counts_buf = np.zeros(len(_COUNTS), dtype=np.int64)
         self._handle = None
         self._eng = _engine.engine()
+        # the buffers of the calls made every cycle: allocated here once and never replaced, so that their
+        # addresses are taken once (the calls by address: ``Engine.by_address``); the views read the outcome
         self._res = _engine.UpdateStruct()
+        self._res_nu = np.ctypeslib.as_array(self._res.innovation)
+        self._res_S = np.ctypeslib.as_array(self._res.S)
+        self._event_nums = np.zeros((16, _engine.EVENT_DOUBLES))
+        self._event_text = ctypes.create_string_buffer(16 * _engine.EVENT_TEXT)
+        self._addr = {"res": ctypes.addressof(self._res), "counts": self._counts_buf.ctypes.data,
+                      "event_nums": self._event_nums.ctypes.data, "event_text": ctypes.addressof(self._event_text)}
+        self._status_call = self._eng.by_address("filter_status")
+        self._events_call = self._eng.by_address("filter_events")
 
     def _policy(self, max_m: int) -> _engine.PolicyStruct:
         """The engine's policy for measurements of at most ``max_m`` components."""
@@ -216,19 +227,18 @@ class FilterBase:
 
     def _sync(self) -> None:
         """Status, counts and events from the engine (after every call that may change them)."""
-        eng, h = self._eng, self._handle
-        status = eng.filter_status(h, self._counts_buf)
-        delta = self._counts_buf - self._seen
-        if delta.any():
-            for key, d in zip(_COUNTS, delta.tolist()):
-                if d:
-                    self.counts[key] = self.counts.get(key, 0) + d
-            self._seen[:] = self._counts_buf
-        self.status = (FilterStatus.RUNNING, FilterStatus.RECOVERING, FilterStatus.DIVERGED)[status]
+        h, addr = self._handle, self._addr
+        status = self._status_call(h, addr["counts"])
+        counts = self._counts_buf.tolist()
+        if counts != self._seen:
+            for key, c, seen in zip(_COUNTS, counts, self._seen):
+                if c != seen:
+                    self.counts[key] = self.counts.get(key, 0) + c - seen
+            self._seen = counts
+        self.status = _STATUS[status]
+        nums, text = self._event_nums, self._event_text  # read out before the next call overwrites them
         while True:
-            nums = np.zeros((16, _engine.EVENT_DOUBLES))
-            text = ctypes.create_string_buffer(16 * _engine.EVENT_TEXT)
-            n = eng.filter_events(h, nums, text, 16)
+            n = self._events_call(h, addr["event_nums"], addr["event_text"], 16)
             for i in range(n):
                 self._event(nums[i], text.raw[i * _engine.EVENT_TEXT:(i + 1) * _engine.EVENT_TEXT])
             if n < 16:
@@ -257,8 +267,8 @@ class FilterBase:
         if r.missing:
             return None
         m = r.m
-        S = np.ctypeslib.as_array(r.S)[: m * m].reshape(m, m).copy()
-        nu = np.ctypeslib.as_array(r.innovation)[:m].copy()
+        S = self._res_S[: m * m].reshape(m, m).copy()
+        nu = self._res_nu[:m].copy()
         if not r.accepted:
             logger.info("%s: %s sample at t = %.6g s rejected (NIS %.3g)", self.name, kind, t, r.nis)
         return UpdateResult(None, None, nu, S, K, float(r.nis), bool(r.accepted),

@@ -211,6 +211,12 @@ class MEKF(FilterBase):
         self._q, self._b, self._c = st[0:4], st[4:7], st[7:m + 1]
         self._t = st[m + 1:m + 2]
         self._P = st[m + 2:].reshape(m, m)
+        # a step's gyro sample, star-tracker sample and covariance are copied into these (allocated once: their
+        # addresses are taken once)
+        self._in_w, self._in_q, self._in_R = np.zeros(3), np.zeros(4), np.zeros((3, 3))
+        self._addr.update(w=self._in_w.ctypes.data, q=self._in_q.ctypes.data, R=self._in_R.ctypes.data)
+        self._predict_call = self._eng.by_address("mekf_predict")
+        self._update_call = self._eng.by_address("mekf_update")
 
     # ------------------------------------------------------------------ the state (the engine's)
     @property
@@ -240,7 +246,8 @@ class MEKF(FilterBase):
         w = _vec(u, "u (gyro sample)", 3)
         if not np.all(np.isfinite(w)):
             raise ValueError("`u` must be finite; skip or hold missing gyro samples before calling predict")
-        self._eng.mekf_predict(self._handle, float(t), float(dt), np.ascontiguousarray(w))
+        self._in_w[...] = w
+        self._predict_call(self._handle, float(t), float(dt), self._addr["w"])
         self._sync()
 
     def update(self, z) -> UpdateResult | None:
@@ -249,9 +256,10 @@ class MEKF(FilterBase):
         Returns the kernel's :class:`~postcapture.core.kalman.UpdateResult`, or None when the sample is
         not finite (skipped and counted). A sample rejected by the gate leaves the state unchanged.
         """
-        q = np.ascontiguousarray(_vec(z.value, "star-tracker value", 4))
-        self._eng.mekf_update(self._handle, float(z.t), q, np.ascontiguousarray(z.R, dtype=float),
-                              ctypes.byref(self._res))
+        self._in_q[...] = _vec(z.value, "star-tracker value", 4)
+        self._in_R[...] = _vec(np.ravel(z.R), "star-tracker covariance", 9).reshape(3, 3)
+        addr = self._addr
+        self._update_call(self._handle, float(z.t), addr["q"], addr["R"], addr["res"])
         return self._result(z.kind, z.t)
 
     def reopen_bias(self, sensor: str, axis: int, sigma: float) -> None:

@@ -19,6 +19,7 @@ step's end). ``R`` gives each sensor's noise covariance as the filters assume it
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -67,6 +68,11 @@ class SchemeResult:
     validity: list = field(default_factory=list)
 
 
+# the step flags as plain ints: an enum member's lookup costs microseconds (Python 3.11), thousands of times a run
+_UPDATED, _REJECTED = int(StepFlag.UPDATED), int(StepFlag.REJECTED)
+_MISSING, _INPUT_MISSING = int(StepFlag.MEASUREMENT_MISSING), int(StepFlag.INPUT_MISSING)
+
+
 class _Recorder:
     def __init__(self, n_t: int, n_p: int, m_err: int):
         self.q = np.full((4, n_t), np.nan)
@@ -83,20 +89,20 @@ class _Recorder:
         self.nis_att[k] = value
 
     def parameters(self, k: int, filt, panel_mass: float) -> None:
-        p = filt.parameters()
-        C = filt.parameter_covariance()
+        both = getattr(filt, "parameters_with_covariance", None)  # one engine call (a reference filter has two)
+        p, C = both() if both is not None else (filt.parameters(), filt.parameter_covariance())
         self.p[:, k] = p
         self.ps[:, k] = np.sqrt(np.maximum(np.diag(C), 0.0))
         self.mass[k] = p[0] + panel_mass
         self.mass_sigma[k] = self.ps[0, k]
 
-    def flag(self, k: int, res, missing_flag=StepFlag.MEASUREMENT_MISSING) -> None:
+    def flag(self, k: int, res, missing_flag=_MISSING) -> None:
         if res is None:
             self.flags[k] |= missing_flag
         elif res.accepted:
-            self.flags[k] |= StepFlag.UPDATED
+            self.flags[k] |= _UPDATED
         else:
-            self.flags[k] |= StepFlag.REJECTED
+            self.flags[k] |= _REJECTED
 
     def nis(self, k: int, kind: str, res) -> None:
         if res is not None and res.accepted:
@@ -105,6 +111,8 @@ class _Recorder:
 
 KINDS = ("gyro", "star_tracker", "accelerometer", "encoders")
 """Measurement kinds of the recommended schemes, in the order a step processes them."""
+
+_XYZ = (0, 1, 2)  # the channels of a star-tracker or gyro update: it uses all three or is missing
 
 
 def _grids(sensors: SensorSuite, t_grid) -> dict:
@@ -194,7 +202,8 @@ class _Run:
         res = f.update(Measurement(kind, t1, value, self.R[kind]))
         if rec is not None:
             rec.nis(kk, kind, res)
-        channels = np.arange(3) if kind in ("star_tracker", "gyro") else np.flatnonzero(np.isfinite(value))
+        channels = _XYZ if kind in ("star_tracker", "gyro") else [i for i, v in enumerate(value.tolist())
+                                                                  if math.isfinite(v)]
         return kind, res, channels
 
     def step(self, k: int, rec=None) -> list:
@@ -205,12 +214,12 @@ class _Run:
             filt.predict(t, dt)
             out.append(self._update(filt, "gyro", t1, k, rec, k + 1))
             if rec is not None:
-                rec.flag(k + 1, out[-1][1], StepFlag.INPUT_MISSING)
+                rec.flag(k + 1, out[-1][1], _INPUT_MISSING)
             out.append(self._update(filt, "star_tracker", t1, k + 1, rec, k + 1))
         else:
             j = self.last_gyro[k]
             if rec is not None and j != k:
-                rec.flags[k + 1] |= StepFlag.INPUT_MISSING
+                rec.flags[k + 1] |= _INPUT_MISSING
             if j >= 0:
                 mekf.predict(t, dt, self.grids["gyro"][:, j])
             out.append(self._update(mekf, "star_tracker", t1, k + 1, rec, k + 1))
@@ -244,10 +253,11 @@ class _Run:
         mekf, filt, n_t = self.mekf, self.filt, self.t_grid.size
         rec = _Recorder(n_t, len(filt.model.param_names), 6)
         sel = np.r_[np.arange(filt.att.start, filt.att.stop), np.arange(filt.i_bg.start, filt.i_bg.stop)]
+        block = np.ix_(sel, sel)
 
         def record(k):
             rec.q[:, k] = filt.q_BN if mekf is None else mekf.q_BN
-            rec.P[..., k] = filt.P[np.ix_(sel, sel)] if mekf is None else mekf.P[:6, :6]
+            rec.P[..., k] = filt.P[block] if mekf is None else mekf.P[:6, :6]
             rec.parameters(k, filt, panel_mass)
 
         record(0)

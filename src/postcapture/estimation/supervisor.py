@@ -20,6 +20,7 @@ real time; every detection is an event with its onset, alarm time, sensor, axis,
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -91,7 +92,7 @@ class Supervisor:
     def mask(self, sensor: str, value: np.ndarray) -> np.ndarray:
         """A sample with its isolated components missing (NaN)."""
         iso = self.isolated.get(sensor)
-        if iso is None or not iso.any():
+        if iso is None or not any(iso.tolist()):  # (plain Python: numpy's any costs microseconds a call)
             return value
         value = np.array(value, dtype=float)
         value[iso] = np.nan
@@ -119,28 +120,36 @@ class Supervisor:
 
     # ------------------------------------------------------------------ detection
     def observe(self, t: float, sensor: str, res, channels) -> list:
-        """Feed one update's innovations (``channels``: the components it used); returns the alarms."""
+        """Feed one update's innovations (``channels``: the components it used); returns the alarms.
+
+        In plain floats (three to seven components, thousands of times a run): ``max(d, 1e-300)`` and
+        ``math.sqrt`` are numpy's ``maximum`` and ``sqrt`` to the bit, a NaN included."""
         if res is None:
             return []
-        s = np.sqrt(np.maximum(np.diag(res.S), 1e-300))
-        z = np.asarray(res.innovation) / s
+        z = [nu / math.sqrt(max(d, 1e-300)) for nu, d in zip(np.asarray(res.innovation, dtype=float).tolist(),
+                                                            np.diagonal(res.S).tolist())]
         flag = self.validity.update(sensor, t, res.nis, len(z))
         if sensor in self.policy.normalised:
-            z = z / self._spread(sensor, z, channels)
+            z = [x / s for x, s in zip(z, self._spread(sensor, z, channels))]
         if flag is not None:
             self.flags.append((flag.time, f"{sensor} model inconsistent from {flag.since:.1f} s "
                                            f"(windowed NIS {flag.side})"))
         return [(sensor, a) for a in self.detectors[sensor].update(t, z, channels)]
 
-    def _spread(self, sensor: str, z, channels) -> np.ndarray:
+    def _spread(self, sensor: str, z, channels) -> list:
         """The running RMS of a sensor's normalised innovations (exponential, over the normalisation window),
-        between the floor and 1, for the components of this update."""
+        between the floor and 1, for the components of this update (``x * x`` and ``min(max(.))`` are numpy's
+        square and clip to the bit)."""
         p = self.policy
-        ms = self._mean_square.setdefault(sensor, np.ones(len(self.sigmas[sensor])))
-        idx = np.arange(ms.size) if channels is None else np.asarray(channels, dtype=int)
+        ms = self._mean_square.setdefault(sensor, [1.0] * len(self.sigmas[sensor]))
+        idx = range(len(ms)) if channels is None else [int(i) for i in channels]
         a = min(self.dt / p.normalisation_window, 1.0)
-        ms[idx] = (1.0 - a) * ms[idx] + a * np.asarray(z, dtype=float) ** 2
-        return np.sqrt(np.clip(ms[idx], p.normalisation_floor**2, 1.0))
+        floor = p.normalisation_floor**2
+        out = []
+        for i, x in zip(idx, z):
+            ms[i] = (1.0 - a) * ms[i] + a * (x * x)
+            out.append(math.sqrt(min(max(ms[i], floor), 1.0)))
+        return out
 
     def handle(self, sensor: str, alarm, t_grid) -> int:
         """Act on an alarm (see the module docstring); returns the step to re-process from."""
