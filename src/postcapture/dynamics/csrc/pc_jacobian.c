@@ -379,31 +379,46 @@ static int reusable_last_stage(const pc_model_t* m, pc_data_t* d, double t_end) 
     return same;
 }
 
+/* the step Jacobians a prediction accumulates: F, Fu, Fp (the caller's) and Fs, Fus, Fps (one step's) */
+typedef struct {
+    int nt, nu, np, frozen;
+    double *F, *Fu, *Fp, *Fs, *Fus, *Fps, *T;
+} chain_t;
+
+/* step j: its own Jacobian into the total (j = 0) or into the one-step blocks then chained; frozen: only
+ * step 0 is differentiated, its Jacobian kept in the one-step blocks and chained for every later step */
+static int jacobian_step(const pc_model_t* m, pc_data_t* d, double* q, double* v, double t, double h, int j,
+                         sens_t* W, chain_t* C) {
+    int err, nt = C->nt;
+    if (C->frozen && j) return pc_step(m, d, q, v, t, h, NULL);
+    if (!j) {
+        err = step_with_jacobian(m, d, q, v, t, h, W, C->F, C->Fu, C->Fp, 0);
+        if (!err && C->frozen) {
+            memcpy(C->Fs, C->F, (size_t)nt * nt * sizeof(double));
+            if (C->nu) memcpy(C->Fus, C->Fu, (size_t)nt * C->nu * sizeof(double));
+            if (C->np) memcpy(C->Fps, C->Fp, (size_t)nt * C->np * sizeof(double));
+        }
+        return err;
+    }
+    return step_with_jacobian(m, d, q, v, t, h, W, C->Fs, C->Fu ? C->Fus : NULL, C->Fps, 1);
+}
+
 /* frozen: the first step's Jacobian taken for every step (F <- F1^n, Fp <- (I + F1 + ... + F1^(n-1)) Fp1):
  * one step's sensitivities instead of n, the mean still stepped exactly */
 static int predict_jacobians(const pc_model_t* m, pc_data_t* d, double* q, double* v, double t, double h, int n_steps,
                              int frozen, double* z, double* F, double* Fu, double* Fp, double* H, double* Hu,
                              double* Hp) {
-    int nv = m->nv, nt = 2 * nv, nu = Fu ? m->nu : 0, np = m->np, j, err = PC_OK;
+    int j, err = PC_OK;
     sens_t W;
-    double *Fs, *Fus, *Fps, *T;
+    chain_t C = {2 * m->nv, Fu ? m->nu : 0, m->np, frozen, F, Fu, Fp, NULL, NULL, NULL, NULL};
+    size_t nt = (size_t)C.nt;
     if (sens_alloc(m, d, &W, Fu != NULL)) return PC_ERR_MEMORY;
-    Fs = pc_arena_alloc(d, (size_t)nt * nt + (size_t)nt * nu + (size_t)nt * np + (size_t)nt * (nt + nu + np) + 1);
-    if (!Fs) return PC_ERR_MEMORY;
-    Fus = Fs + (size_t)nt * nt; Fps = Fus + (size_t)nt * nu; T = Fps + (size_t)nt * np;
+    C.Fs = pc_arena_alloc(d, nt * nt + nt * C.nu + nt * C.np + nt * (nt + C.nu + C.np) + 1);
+    if (!C.Fs) return PC_ERR_MEMORY;
+    C.Fus = C.Fs + nt * nt; C.Fps = C.Fus + nt * C.nu; C.T = C.Fps + nt * C.np;
     for (j = 0; j < n_steps && !err; j++) {
-        if (frozen && j) {
-            err = pc_step(m, d, q, v, t + j * h, h, NULL);
-        } else {
-            err = step_with_jacobian(m, d, q, v, t + j * h, h, &W, j ? Fs : F, Fu ? (j ? Fus : Fu) : NULL,
-                                     j ? Fps : Fp, j > 0);
-            if (!err && frozen) { /* keep the one-step Jacobian */
-                memcpy(Fs, F, (size_t)nt * nt * sizeof(double));
-                if (nu) memcpy(Fus, Fu, (size_t)nt * nu * sizeof(double));
-                if (np) memcpy(Fps, Fp, (size_t)nt * np * sizeof(double));
-            }
-        }
-        if (!err && j) chain(nt, nu, np, Fs, Fus, Fps, F, Fu, Fp, T);
+        err = jacobian_step(m, d, q, v, t + j * h, h, j, &W, &C);
+        if (!err && j) chain(C.nt, C.nu, C.np, C.Fs, C.Fus, C.Fps, F, Fu, Fp, C.T);
     }
     if (err) return err;
     return measure_with(m, d, q, v, t + n_steps * h, z, H, Hu, Hp,

@@ -224,10 +224,39 @@ static void sensed_means(const double* x0, const double* x1, double t0, double t
     for (i = 0; i < 3; i++) out[3 + i] -= g[i];
 }
 
+/* the sampled sensors (6 outputs): the last step's means, or before any step the instantaneous values */
+static void sampled_sensors(const pc_fmu_t* F, const double* q, const double* v, const double* mech, double* y) {
+    int i;
+    if (F->c.sensed) {
+        for (i = 0; i < 6; i++) y[i] = F->c.sens[i];
+    } else {
+        double g[3];
+        tidal_now(q, F->c.time, g);
+        for (i = 0; i < 3; i++) y[i] = v[3 + i];
+        for (i = 0; i < 3; i++) y[3 + i] = mech[11 + i] - g[i];
+    }
+}
+
+/* ambient state derivative: dp/dt = R v, dquat/dt = quat (w, 0) / 2, de/dt = v_e, dv/dt = ddq */
+static void state_derivative(pc_fmu_t* F, const double* q, const double* v) {
+    const double* a = q + 3;
+    const double* w = v + 3;
+    double R[9];
+    int i;
+    quat_matrix(a, R);
+    for (i = 0; i < 3; i++) F->xdot[i] = R[3 * i] * v[0] + R[3 * i + 1] * v[1] + R[3 * i + 2] * v[2];
+    F->xdot[3] = 0.5 * (a[3] * w[0] + a[1] * w[2] - a[2] * w[1]);
+    F->xdot[4] = 0.5 * (a[3] * w[1] - a[0] * w[2] + a[2] * w[0]);
+    F->xdot[5] = 0.5 * (a[3] * w[2] + a[0] * w[1] - a[1] * w[0]);
+    F->xdot[6] = 0.5 * (-a[0] * w[0] - a[1] * w[1] - a[2] * w[2]);
+    for (i = 7; i < NQ; i++) F->xdot[i] = v[i - 1];
+    for (i = 0; i < NV; i++) F->xdot[NQ + i] = F->ddq[i];
+}
+
 static int update_outputs(pc_fmu_t* F) {
     const double* q = F->c.x;
     const double* v = F->c.x + NQ;
-    double mech[11 + PC_NZ], panels[4 * PC_NPANELS + 1], R[9];
+    double mech[11 + PC_NZ], panels[4 * PC_NPANELS + 1];
     int i, k = 0, off = NQ - NV;
     if (F->out_valid) return 0;
     push_settings(F);
@@ -244,28 +273,8 @@ static int update_outputs(pc_fmu_t* F) {
     for (i = 0; i < PC_NARM; i++) F->y[k++] = i < PC_NARM_V ? v[PC_ARM_V[i]] : 0.0;
     for (i = 0; i < PC_NARM; i++) F->y[k++] = i < PC_NARM_V ? F->ddq[PC_ARM_V[i]] : 0.0;
     for (i = 0; i < 4 * PC_NPANELS; i++) F->y[k++] = panels[i];
-    /* the sampled sensors: the last step's means, or before any step the instantaneous values */
-    if (F->c.sensed) {
-        for (i = 0; i < 6; i++) F->y[k++] = F->c.sens[i];
-    } else {
-        double g[3];
-        tidal_now(q, F->c.time, g);
-        for (i = 0; i < 3; i++) F->y[k++] = v[3 + i];
-        for (i = 0; i < 3; i++) F->y[k++] = mech[11 + i] - g[i];
-    }
-    /* ambient state derivative: dp/dt = R v, dquat/dt = quat (w, 0) / 2, de/dt = v_e, dv/dt = ddq */
-    {
-        const double* a = q + 3;
-        const double* w = v + 3;
-        quat_matrix(a, R);
-        for (i = 0; i < 3; i++) F->xdot[i] = R[3 * i] * v[0] + R[3 * i + 1] * v[1] + R[3 * i + 2] * v[2];
-        F->xdot[3] = 0.5 * (a[3] * w[0] + a[1] * w[2] - a[2] * w[1]);
-        F->xdot[4] = 0.5 * (a[3] * w[1] - a[0] * w[2] + a[2] * w[0]);
-        F->xdot[5] = 0.5 * (a[3] * w[2] + a[0] * w[1] - a[1] * w[0]);
-        F->xdot[6] = 0.5 * (-a[0] * w[0] - a[1] * w[1] - a[2] * w[2]);
-    }
-    for (i = 7; i < NQ; i++) F->xdot[i] = v[i - 1];
-    for (i = 0; i < NV; i++) F->xdot[NQ + i] = F->ddq[i];
+    sampled_sensors(F, q, v, mech, F->y + k);
+    state_derivative(F, q, v);
     F->out_valid = 1;
     return 0;
 }
