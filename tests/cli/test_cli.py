@@ -105,11 +105,11 @@ def test_bad_option_value_exits_1(capsys):
 
 @pytest.mark.slow  # compiles the core from scratch and runs a short main job (about 30 s)
 def test_bench_json_keys(capsys):
-    code, out, _ = run(capsys, "bench", "--duration", "0.2", "--json")
+    code, out, _ = run(capsys, "bench", "--duration", "1.0", "--json")  # 1 s: the filters' shortest run
     assert code == 0
     result = json.loads(out)
     for key in ("rtf_n5", "rtf_n50", "rtf_n200", "rtf_n5_1arcsec", "predict_ms_n5", "predict_ms_n50", "compile_s",
-                "main_job_s"):
+                "main_job_s", "filter_rtf_joint_n5", "filter_rtf_dual_n5"):
         assert result[key] > 0
 
 
