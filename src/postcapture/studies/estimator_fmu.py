@@ -247,6 +247,22 @@ def _policy_lines(prefix: str, policy, gate_probability, max_m: int) -> list[str
             f"static const double {prefix}_BOUND[{bound.size}] = {_array(bound)};"]
 
 
+def _variable_tables(layout: _Layout) -> list[str]:
+    """The tables of ``pc_est_data.h`` every estimator FMU reads its variables from (start values, causality,
+    tunability, positivity, names), and the header's end."""
+    v = layout.variables
+    ints = lambda x: str(int(x))  # noqa: E731
+    return [
+        f"static const double PCE_START[{len(v)}] = {_array([x.start for x in v])};",
+        f"static const int PCE_CAUSALITY[{len(v)}] = {_array([x.causality for x in v], ints)};",
+        f"static const int PCE_TUNABLE[{len(v)}] = {_array([x.tunable for x in v], ints)};",
+        f"static const int PCE_POSITIVE[{len(v)}] = {_array([x.positive for x in v], ints)};",
+        f"static const char* const PCE_NAMES[{len(v)}] = {{\n    " + ",\n    ".join(_c_string(x.name) for x in v)
+        + "\n};",
+        "#endif",
+    ]
+
+
 def _reference_dual_data(scenario: Scenario, case: str, profile: str, guid: str):
     """``(layout, pc_est_data.h text, plan)`` of a reference-dual case."""
     plan, model, x0, S0, cfg = _reference_dual(scenario, case, profile)
@@ -319,17 +335,8 @@ def _reference_dual_header(plan, model, x0, S0, cfg, layout: _Layout, guid: str)
         f"static const double PCE_P0[{model.params.size}] = {_array(model.params)};",
         f"static const double PCE_EKF_P0[9] = {_array(cfg.ekf.P0)};",
         f"static const double PCE_MEKF_P0[{mekf_P0.size}] = {_array(mekf_P0)};",
-        f"static const double PCE_START[{len(layout.variables)}] = {_array([v.start for v in layout.variables])};",
-        f"static const int PCE_CAUSALITY[{len(layout.variables)}] = "
-        f"{_array([v.causality for v in layout.variables], ints)};",
-        f"static const int PCE_TUNABLE[{len(layout.variables)}] = {_array([v.tunable for v in layout.variables], ints)};",
-        f"static const int PCE_POSITIVE[{len(layout.variables)}] = "
-        f"{_array([v.positive for v in layout.variables], ints)};",
-        f"static const char* const PCE_NAMES[{len(layout.variables)}] = {{\n    "
-        + ",\n    ".join(_c_string(v.name) for v in layout.variables) + "\n};",
-        "#endif",
     ]
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _variable_tables(layout)) + "\n"
 
 
 def _filters(scenario: Scenario, case: str, profile: str):
@@ -412,17 +419,8 @@ def _header(plan, model, aug, cfg, R, gate, window, layout: _Layout, guid: str, 
         f"static const double PCE_WINDOW_BOUND[{w.size}] = {_array(w)};",
         f"static const double PCE_MEKF_P0[{mekf_P0.size}] = {_array(mekf_P0)};",
         f"static const double PCE_BIAS[{max(1, bias.size)}] = {_array(bias if bias.size else [0.0])};",
-        f"static const double PCE_START[{len(layout.variables)}] = {_array([v.start for v in layout.variables])};",
-        f"static const int PCE_CAUSALITY[{len(layout.variables)}] = "
-        f"{_array([v.causality for v in layout.variables], ints)};",
-        f"static const int PCE_TUNABLE[{len(layout.variables)}] = {_array([v.tunable for v in layout.variables], ints)};",
-        f"static const int PCE_POSITIVE[{len(layout.variables)}] = "
-        f"{_array([v.positive for v in layout.variables], ints)};",
-        f"static const char* const PCE_NAMES[{len(layout.variables)}] = {{\n    "
-        + ",\n    ".join(_c_string(v.name) for v in layout.variables) + "\n};",
-        "#endif",
     ]
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _variable_tables(layout)) + "\n"
 
 
 def _model_description(layout: _Layout, ident: str, guid: str, case: str, scenario: Scenario, period: float,

@@ -1,10 +1,11 @@
 /*
  * postcapture estimator FMU: what every scheme's cycle reads from the inputs (pc_estimator.h): the
  * measurements as the filters take them and the commanded inputs into the plant copy, and the checks of a
- * state a master sets.
+ * state a master sets; and the lifecycle both share (the filters a cycle created, the plant, the defaults).
  */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "pc_estimator.h"
@@ -65,3 +66,33 @@ int pc_est_covariance(const double* P, int n) {
     return 1;
 }
 
+
+/* the filters of whichever cycle created them */
+void pc_est_free_filters(pc_est_t* E) {
+    void* const filters[4] = {E->aug, E->mekf, E->atekf, E->massf};
+    int i;
+    for (i = 0; i < 4; i++)
+        if (filters[i]) pc_filter_destroy(filters[i]);
+    E->aug = NULL;
+    E->mekf = NULL;
+    E->atekf = NULL;
+    E->massf = NULL;
+    E->started = 0;
+}
+
+void pc_est_destroy(pc_est_t* E) {
+    pc_est_free_filters(E);
+    free(E->work);
+    E->work = NULL;
+    pc_data_destroy(E->d);
+    pc_model_destroy(E->m);
+}
+
+void pc_est_defaults(pc_est_t* E) {
+    int i;
+    pc_est_free_filters(E);
+    for (i = 0; i < PCE_NREAL; i++) E->r[i] = PCE_START[i];
+    E->t = 0.0;
+    E->k = 0;
+    E->have_gyro = 0;
+}

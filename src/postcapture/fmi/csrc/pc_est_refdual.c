@@ -54,32 +54,6 @@ int pc_est_create(pc_est_t* E, char* err, size_t n_err) {
     return PC_OK;
 }
 
-static void free_filters(pc_est_t* E) {
-    if (E->atekf) pc_filter_destroy(E->atekf);
-    if (E->mekf) pc_filter_destroy(E->mekf);
-    if (E->massf) pc_filter_destroy(E->massf);
-    E->atekf = NULL;
-    E->mekf = NULL;
-    E->massf = NULL;
-    E->started = 0;
-}
-
-void pc_est_destroy(pc_est_t* E) {
-    free_filters(E);
-    free(E->work);
-    pc_data_destroy(E->d);
-    pc_model_destroy(E->m);
-}
-
-void pc_est_defaults(pc_est_t* E) {
-    int i;
-    free_filters(E);
-    for (i = 0; i < PCE_NREAL; i++) E->r[i] = PCE_START[i];
-    E->t = 0.0;
-    E->k = 0;
-    E->have_gyro = 0;
-}
-
 /* ------------------------------------------------------------------------------------ the plant copy */
 static void attitude(const double* x, double* q) { pc_q_from_xyzw(x + 3, q); }
 
@@ -215,7 +189,7 @@ int pc_est_start(pc_est_t* E, double t0) {
     double* r = E->r;
     pc_policy_t pol;
     int i, err;
-    free_filters(E);
+    pc_est_free_filters(E);
     for (i = 0; i < 4; i++) q[i] = r[PCE_VR_Q0 + i];
     if (!pc_est_unit(q)) {
         snprintf(E->message, sizeof E->message, "q0_BN: expected a unit quaternion, found norm %.17g",
@@ -251,7 +225,7 @@ int pc_est_start(pc_est_t* E, double t0) {
                                r[PCE_VR_MASS_T_END], &pol);
     if (!(E->atekf || E->mekf) || !E->massf) {
         snprintf(E->message, sizeof E->message, "the filters could not be created");
-        free_filters(E);
+        pc_est_free_filters(E);
         return PC_ERR_MEMORY;
     }
     E->t = t0;

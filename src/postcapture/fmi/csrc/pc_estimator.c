@@ -55,29 +55,6 @@ int pc_est_create(pc_est_t* E, char* err, size_t n_err) {
     return PC_OK;
 }
 
-static void free_filters(pc_est_t* E) {
-    if (E->aug) pc_filter_destroy(E->aug);
-    if (E->mekf) pc_filter_destroy(E->mekf);
-    E->aug = NULL;
-    E->mekf = NULL;
-    E->started = 0;
-}
-
-void pc_est_destroy(pc_est_t* E) {
-    free_filters(E);
-    pc_data_destroy(E->d);
-    pc_model_destroy(E->m);
-}
-
-void pc_est_defaults(pc_est_t* E) {
-    int i;
-    free_filters(E);
-    for (i = 0; i < PCE_NREAL; i++) E->r[i] = PCE_START[i];
-    E->t = 0.0;
-    E->k = 0;
-    E->have_gyro = 0;
-}
-
 /* ------------------------------------------------------------------------------------ outputs */
 static void outputs(pc_est_t* E) {
     double* r = E->r;
@@ -145,7 +122,7 @@ int pc_est_start(pc_est_t* E, double t0) {
     pc_policy_t pol;
     char err[256];
     int i;
-    free_filters(E);
+    pc_est_free_filters(E);
     for (i = 0; i < 4; i++) q[i] = r[PCE_VR_Q0 + i];
     {
         double nq = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);

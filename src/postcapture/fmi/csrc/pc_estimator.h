@@ -33,8 +33,9 @@ typedef struct {
 } pc_est_t;
 
 int pc_est_create(pc_est_t* E, char* err, size_t n_err);
-void pc_est_destroy(pc_est_t* E);
+void pc_est_destroy(pc_est_t* E);  /* pc_est_inputs.c, as the two below */
 void pc_est_defaults(pc_est_t* E);
+void pc_est_free_filters(pc_est_t* E); /* the filters whichever cycle created */
 int pc_est_start(pc_est_t* E, double t0);          /* the filters from the prior and the tunable settings */
 int pc_est_cycle(pc_est_t* E, double t, double h); /* one filter cycle from t to t + h */
 int pc_est_retune(pc_est_t* E);                     /* the tunable settings into the filters */
